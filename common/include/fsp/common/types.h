@@ -1,0 +1,49 @@
+// Plain data types shared by the front end, the back end, the simulator and the apps.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include <opencv2/core/mat.hpp>
+
+#include "fsp/common/geometry.h"
+
+namespace fsp {
+
+// One IMU reading in the body frame B: angular velocity [rad/s] and specific force [m/s^2].
+struct ImuSample {
+  int64_t t_ns = 0;
+  Vec3 gyro = Vec3::Zero();
+  Vec3 acc = Vec3::Zero();
+};
+
+// One camera image. `image` is 8-bit grey (CV_8UC1); `source` names where it came from (a file path,
+// or "video.mp4#frame=12") for error messages.
+struct Frame {
+  int64_t t_ns = 0;
+  int index = 0;
+  std::string source;
+  cv::Mat image;
+};
+
+// A ground-truth or estimated body state (EuRoC ground-truth columns).
+struct StateSample {
+  int64_t t_ns = 0;
+  Rigid3 T_W_B;
+  Vec3 v_W = Vec3::Zero();
+  Vec3 gyro_bias = Vec3::Zero();
+  Vec3 acc_bias = Vec3::Zero();
+};
+
+// A timestamped pose (TUM trajectory row).
+struct StampedPose {
+  int64_t t_ns = 0;
+  Rigid3 T_W_B;
+};
+
+// Four image corners of one rectangle in s1..s4 order (bottom-left, bottom-right, top-right, top-left
+// for an upright object seen from the front).
+using Corners = std::array<Vec2, 4>;
+
+}  // namespace fsp

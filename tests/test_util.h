@@ -1,0 +1,44 @@
+// Shared helpers for the tests: where the real test data lives, scratch directories, running `fsp`.
+#pragma once
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace fsp::test {
+
+// $FSP_TEST_DATA, else ../shared/data beside the checkout; empty when neither exists.
+inline std::string TestDataDir() {
+  if (const char* env = std::getenv("FSP_TEST_DATA"); env && *env) return env;
+  return std::filesystem::exists(FSP_DEFAULT_TEST_DATA) ? FSP_DEFAULT_TEST_DATA : "";
+}
+
+// Path of SUB inside the test data; the calling test skips (with the reason) when it is absent.
+#define FSP_REQUIRE_TEST_DATA(var, sub)                                                          \
+  const std::string var = ::fsp::test::TestDataDir() + "/" + (sub);                             \
+  if (::fsp::test::TestDataDir().empty() || !std::filesystem::exists(var))                      \
+  GTEST_SKIP() << "test data '" << (sub) << "' not found: set FSP_TEST_DATA to the shared data " \
+                  "directory (see tests/README.md)"
+
+// A fresh, empty scratch directory named after the running test.
+inline std::filesystem::path ScratchDir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::filesystem::path dir = std::filesystem::temp_directory_path() / "fsp_tests" /
+                              (std::string(info->test_suite_name()) + "." + info->name());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+struct CommandResult {
+  int exit_code = 0;
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+
+// Runs the built `fsp` binary with ARGS (a shell-quoted string), capturing stdout and stderr.
+CommandResult RunFsp(const std::string& args);
+
+}  // namespace fsp::test
