@@ -57,13 +57,4 @@ std::unique_ptr<Source> OpenSource(const SourceOptions& options);
 std::vector<ImuSample> ReadImuCsv(const std::string& path);
 void WriteImuCsv(const std::vector<ImuSample>& imu, const std::string& path);
 
-// EuRoC ground truth csv: t_ns, p xyz, q wxyz, v xyz, gyro bias xyz, acc bias xyz (extra columns ignored;
-// the first 8 are required).
-std::vector<StateSample> ReadEurocGroundTruth(const std::string& path);
-void WriteEurocGroundTruth(const std::vector<StateSample>& states, const std::string& path);
-
-// TUM trajectory: "t_s tx ty tz qx qy qz qw", '#' comments, space or comma separated.
-std::vector<StampedPose> ReadTum(const std::string& path);
-void WriteTum(const std::vector<StampedPose>& poses, const std::string& path);
-
 }  // namespace fsp
