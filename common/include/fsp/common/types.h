@@ -46,4 +46,19 @@ struct StampedPose {
 // for an upright object seen from the front).
 using Corners = std::array<Vec2, 4>;
 
+// Object classes the front end can name. kUnknown is a rectangle without a class guess.
+enum class ObjectClass { kUnknown, kDoor, kWindow, kCabinet, kPoster, kTag };
+const char* ToString(ObjectClass c);
+// Parses "door", "window", "cabinet", "poster" (also "painting"), "tag", "unknown"; false otherwise.
+bool ParseObjectClass(const std::string& name, ObjectClass* c);
+
+// What the front end hands to the back end for one object in one frame.
+struct ObjectObservation {
+  int64_t t_ns = 0;
+  int object_id = -1;
+  ObjectClass object_class = ObjectClass::kUnknown;
+  Corners corners;           // UNDISTORTED pixels, s1..s4 order
+  double score = 1.0;        // detector/tracker confidence in [0, 1]
+};
+
 }  // namespace fsp
