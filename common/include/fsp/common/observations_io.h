@@ -1,0 +1,27 @@
+// Per-frame corner observations as csv (CONTRACT.md):
+//   observations_gt.csv: t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4,fully_visible   (rendered ground truth)
+//   observations.csv:    t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4                 (what a run's front end saw)
+// Corners are undistorted pixels in s1..s4 order.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "fsp/common/types.h"
+
+namespace fsp {
+
+struct CornerRow {
+  int64_t t_ns = 0;
+  int object_id = -1;
+  Corners corners;
+  bool fully_visible = true;  // true when the file has no flag column
+};
+
+// Reads either layout (10 or 11 columns; a header line starting with '#' or "t_ns" is skipped).
+// Rows must be in non-decreasing time order. Throws InputError naming file and line.
+std::vector<CornerRow> ReadCornerRows(const std::string& path);
+// Writes the layout with the fully_visible column when `with_flag`.
+void WriteCornerRows(const std::vector<CornerRow>& rows, const std::string& path, bool with_flag);
+
+}  // namespace fsp

@@ -1,0 +1,57 @@
+#include "fsp/common/observations_io.h"
+
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+
+#include "fsp/common/csv.h"
+#include "fsp/common/error.h"
+
+namespace fsp {
+
+std::vector<CornerRow> ReadCornerRows(const std::string& path) {
+  TableReader reader(path, "observations csv");
+  std::vector<CornerRow> rows;
+  std::vector<std::string> f;
+  while (reader.NextRow(&f)) {
+    if (!f.empty() && f[0] == "t_ns") continue;  // header without '#'
+    reader.ExpectColumns(f, 10, 11);
+    CornerRow row;
+    row.t_ns = reader.Int64(f, 0, "t_ns");
+    row.object_id = static_cast<int>(reader.Int64(f, 1, "object_id"));
+    static const char* kNames[8] = {"u1", "v1", "u2", "v2", "u3", "v3", "u4", "v4"};
+    for (int j = 0; j < 4; ++j) {
+      row.corners[j] = Vec2(reader.Double(f, 2 + 2 * j, kNames[2 * j]), reader.Double(f, 3 + 2 * j, kNames[2 * j + 1]));
+    }
+    if (f.size() == 11) {
+      const int64_t flag = reader.Int64(f, 10, "fully_visible");
+      if (flag != 0 && flag != 1) reader.Fail("column 11 (fully_visible) must be 0 or 1");
+      row.fully_visible = flag == 1;
+    }
+    if (!rows.empty() && row.t_ns < rows.back().t_ns) {
+      reader.Fail("timestamp " + std::to_string(row.t_ns) + " goes backwards (previous row has " +
+                  std::to_string(rows.back().t_ns) + ")");
+    }
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+void WriteCornerRows(const std::vector<CornerRow>& rows, const std::string& path, bool with_flag) {
+  std::ofstream out(path);
+  if (!out) throw InputError(path, 0, "cannot write observations csv");
+  out << "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4" << (with_flag ? ",fully_visible" : "") << "\n";
+  char buf[64];
+  for (const CornerRow& r : rows) {
+    out << r.t_ns << ',' << r.object_id;
+    for (const Vec2& c : r.corners) {
+      std::snprintf(buf, sizeof(buf), ",%.4f,%.4f", c.x(), c.y());
+      out << buf;
+    }
+    if (with_flag) out << ',' << (r.fully_visible ? 1 : 0);
+    out << '\n';
+  }
+  if (!out) throw InputError(path, 0, "write failed");
+}
+
+}  // namespace fsp
