@@ -1,0 +1,239 @@
+#include "fsp/common/calibration.h"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "fsp/common/error.h"
+#include "yaml_util.h"
+
+namespace fsp {
+
+namespace {
+
+using internal::YamlFile;
+
+bool PositiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
+
+// Shortest decimal text that reads back to exactly V.
+std::string Num(double v) {
+  char buf[64];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, res.ptr);
+}
+
+// The four Kalibr densities plus the rate ("rate_hz" in EuRoC/FSP files, "update_rate" in Kalibr's).
+ImuNoise ParseImuNoise(const YamlFile& f, const YAML::Node& map) {
+  ImuNoise n;
+  n.gyroscope_noise_density = f.Double(f.Require(map, "gyroscope_noise_density"), "gyroscope_noise_density");
+  n.accelerometer_noise_density =
+      f.Double(f.Require(map, "accelerometer_noise_density"), "accelerometer_noise_density");
+  n.gyroscope_random_walk = f.Double(f.Require(map, "gyroscope_random_walk"), "gyroscope_random_walk");
+  n.accelerometer_random_walk = f.Double(f.Require(map, "accelerometer_random_walk"), "accelerometer_random_walk");
+  if (map["rate_hz"]) n.rate_hz = f.Double(map["rate_hz"], "rate_hz");
+  else if (map["update_rate"]) n.rate_hz = f.Double(map["update_rate"], "update_rate");
+  std::string why;
+  if (!n.Check(&why)) f.Fail(map, "IMU noise: " + why);
+  return n;
+}
+
+// Rejects every model but pinhole + radial-tangential (or no distortion).
+void CheckCameraModel(const YamlFile& f, const YAML::Node& cam, const char* model_key, const char* dist_key) {
+  const YAML::Node model = cam[model_key];
+  const YAML::Node dist = cam[dist_key];
+  const std::string m = model ? f.String(model, model_key) : "pinhole";
+  const std::string d = dist ? f.String(dist, dist_key) : "radtan";
+  const bool radtan = d == "radtan" || d == "radial-tangential" || d == "plumb_bob" || d == "none";
+  if (m != "pinhole" || !radtan) {
+    f.Fail(model ? model : cam, "unsupported camera model '" + m + "' with '" + d +
+                                    "' distortion: fsp supports pinhole cameras with radial-tangential "
+                                    "(radtan) distortion only");
+  }
+}
+
+// Intrinsics [fu, fv, cu, cv] and resolution [w, h] (EuRoC and Kalibr share these keys).
+void ParseIntrinsics(const YamlFile& f, const YAML::Node& cam, PinholeRadtan* camera) {
+  const std::vector<double> k = f.Doubles(f.Require(cam, "intrinsics"), "intrinsics", 4);
+  camera->fx = k[0];
+  camera->fy = k[1];
+  camera->cx = k[2];
+  camera->cy = k[3];
+  const YAML::Node res = f.Require(cam, "resolution");
+  if (!res.IsSequence() || res.size() != 2) f.Fail(res, "'resolution' must be [width, height]");
+  camera->width = f.Int(res[0], "resolution[0]");
+  camera->height = f.Int(res[1], "resolution[1]");
+}
+
+void ParseDistortion(const YamlFile& f, const YAML::Node& node, const std::string& name, PinholeRadtan* camera) {
+  if (!node) return;  // no distortion
+  if (node.IsSequence() && node.size() == 0) return;
+  const std::vector<double> d = f.Doubles(node, name, 4);
+  for (size_t i = 0; i < 4; ++i) camera->distortion[i] = d[i];
+}
+
+// EuRoC cam0/sensor.yaml.
+void ParseEuroc(const YamlFile& f, bool check_model, Calibration* c) {
+  const YAML::Node& root = f.root();
+  c->T_B_C = f.Transform(f.Require(root, "T_BS"), "T_BS");
+  if (!check_model) return;
+  CheckCameraModel(f, root, "camera_model", "distortion_model");
+  ParseIntrinsics(f, root, &c->camera);
+  ParseDistortion(f, root["distortion_coefficients"], "distortion_coefficients", &c->camera);
+  if (root["rate_hz"]) c->camera_rate_hz = f.Double(root["rate_hz"], "rate_hz");
+}
+
+// Kalibr camchain: cam0 {T_imu_cam | T_cam_imu, camera_model, intrinsics, distortion_model,
+// distortion_coeffs, resolution, timeshift_cam_imu}.
+void ParseKalibr(const YamlFile& f, bool check_model, Calibration* c) {
+  const YAML::Node cam = f.Require(f.root(), "cam0");
+  if (!cam.IsMap()) f.Fail(cam, "'cam0' is not a map");
+  if (cam["T_imu_cam"]) {
+    c->T_B_C = f.Transform(cam["T_imu_cam"], "T_imu_cam");  // camera -> IMU already
+  } else if (cam["T_cam_imu"]) {
+    c->T_B_C = f.Transform(cam["T_cam_imu"], "T_cam_imu").Inverse();  // T_C_B -> T_B_C
+  } else {
+    f.Fail(cam, "cam0 has neither T_imu_cam nor T_cam_imu");
+  }
+  if (!check_model) return;
+  CheckCameraModel(f, cam, "camera_model", "distortion_model");
+  ParseIntrinsics(f, cam, &c->camera);
+  ParseDistortion(f, cam["distortion_coeffs"], "distortion_coeffs", &c->camera);
+  if (cam["timeshift_cam_imu"]) {
+    c->time_offset_ns = std::llround(f.Double(cam["timeshift_cam_imu"], "timeshift_cam_imu") * 1e9);
+  }
+  if (f.root()["imu0"]) {
+    c->imu = ParseImuNoise(f, f.root()["imu0"]);
+    c->imu_source = f.path();
+  }
+}
+
+// FSP's calib.yaml (format in calibration.h).
+void ParseFsp(const YamlFile& f, bool check_model, Calibration* c) {
+  const YAML::Node& root = f.root();
+  c->T_B_C = f.Transform(f.Require(root, "T_B_C"), "T_B_C");
+  if (!check_model) return;
+  const YAML::Node cam = root["camera"];
+  if (!cam.IsMap()) f.Fail(cam, "'camera' is not a map");
+  c->camera.width = f.Int(f.Require(cam, "width"), "width");
+  c->camera.height = f.Int(f.Require(cam, "height"), "height");
+  c->camera.fx = f.Double(f.Require(cam, "fx"), "fx");
+  c->camera.fy = f.Double(f.Require(cam, "fy"), "fy");
+  c->camera.cx = f.Double(f.Require(cam, "cx"), "cx");
+  c->camera.cy = f.Double(f.Require(cam, "cy"), "cy");
+  ParseDistortion(f, cam["distortion"], "distortion", &c->camera);
+  if (cam["rate_hz"]) c->camera_rate_hz = f.Double(cam["rate_hz"], "rate_hz");
+  if (root["time_offset_ns"]) {
+    const double off = f.Double(root["time_offset_ns"], "time_offset_ns");
+    if (off != std::floor(off)) f.Fail(root["time_offset_ns"], "'time_offset_ns' is not an integer");
+    c->time_offset_ns = static_cast<int64_t>(off);
+  }
+  if (root["imu"]) {
+    c->imu = ParseImuNoise(f, root["imu"]);
+    c->imu_source = f.path();
+  }
+}
+
+Calibration Parse(const std::string& path, bool check_model) {
+  const YamlFile f(path, "calibration file");
+  const YAML::Node& root = f.root();
+  Calibration c;
+  c.source = path;
+  if (root["camera"]) {
+    ParseFsp(f, check_model, &c);
+  } else if (root["cam0"]) {
+    ParseKalibr(f, check_model, &c);
+  } else if (root["intrinsics"] || root["T_BS"]) {
+    ParseEuroc(f, check_model, &c);
+  } else {
+    const bool imu_only = root["imu0"] || root["gyroscope_noise_density"] || root["imu"];
+    f.Fail(root, std::string(imu_only ? "holds only an IMU calibration; " : "") +
+                     "not a camera calibration: expected an EuRoC sensor.yaml (T_BS, intrinsics), a Kalibr "
+                     "camchain (cam0:) or an fsp calib.yaml (camera:, T_B_C:)");
+  }
+  if (check_model) {
+    std::string why;
+    if (!c.Check(&why)) throw InputError(path, 0, why);
+  }
+  return c;
+}
+
+}  // namespace
+
+bool ImuNoise::Check(std::string* why) const {
+  std::string w;
+  if (!PositiveFinite(gyroscope_noise_density)) w = "gyroscope_noise_density must be positive";
+  else if (!PositiveFinite(accelerometer_noise_density)) w = "accelerometer_noise_density must be positive";
+  else if (!PositiveFinite(gyroscope_random_walk)) w = "gyroscope_random_walk must be positive";
+  else if (!PositiveFinite(accelerometer_random_walk)) w = "accelerometer_random_walk must be positive";
+  else if (!PositiveFinite(rate_hz)) w = "IMU rate_hz must be positive";
+  if (why) *why = w;
+  return w.empty();
+}
+
+bool Calibration::Check(std::string* why) const {
+  std::string w;
+  if (!camera.Check(&w)) {
+    w = "camera: " + w;
+  } else if (!T_B_C.Matrix().allFinite()) {
+    w = "T_B_C is not finite";
+  } else if (!PositiveFinite(camera_rate_hz)) {
+    w = "camera rate_hz must be positive";
+  } else if (!imu.Check(&w)) {
+    w = "imu: " + w;
+  }
+  if (why) *why = w;
+  return w.empty();
+}
+
+Calibration ReadCalibration(const std::string& path) { return Parse(path, true); }
+
+Rigid3 ReadCameraExtrinsics(const std::string& path) { return Parse(path, false).T_B_C; }
+
+ImuNoise ReadImuNoise(const std::string& path) {
+  const YamlFile f(path, "IMU calibration file");
+  const YAML::Node& root = f.root();
+  if (root["imu"]) return ParseImuNoise(f, root["imu"]);
+  if (root["imu0"]) return ParseImuNoise(f, root["imu0"]);
+  if (root["gyroscope_noise_density"]) return ParseImuNoise(f, root);
+  f.Fail(root, "no IMU noise: expected an EuRoC imu0/sensor.yaml (gyroscope_noise_density, ...), a Kalibr imu "
+               "chain (imu0:) or an fsp calib.yaml (imu:)");
+}
+
+void WriteCalibration(const Calibration& calib, const std::string& path) {
+  const PinholeRadtan& cam = calib.camera;
+  const ImuNoise& imu = calib.imu;
+  std::ostringstream os;
+  os << "# fsp calibration (format: common/include/fsp/common/calibration.h)\n"
+     << "camera:\n"
+     << "  width: " << cam.width << "\n"
+     << "  height: " << cam.height << "\n"
+     << "  fx: " << Num(cam.fx) << "\n"
+     << "  fy: " << Num(cam.fy) << "\n"
+     << "  cx: " << Num(cam.cx) << "\n"
+     << "  cy: " << Num(cam.cy) << "\n"
+     << "  distortion: [" << Num(cam.distortion[0]) << ", " << Num(cam.distortion[1]) << ", "
+     << Num(cam.distortion[2]) << ", " << Num(cam.distortion[3]) << "]  # k1, k2, p1, p2\n"
+     << "  rate_hz: " << Num(calib.camera_rate_hz) << "\n"
+     << "# camera -> body (IMU), row-major 4x4: p_B = T_B_C * p_C\n"
+     << "T_B_C: [";
+  const Mat4 M = calib.T_B_C.Matrix();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) os << Num(M(r, c)) << (r == 3 && c == 3 ? "" : ", ");
+    if (r < 3) os << "\n        ";
+  }
+  os << "]\n"
+     << "time_offset_ns: " << calib.time_offset_ns << "  # t_imu = t_cam + time_offset_ns\n"
+     << "imu:\n"
+     << "  rate_hz: " << Num(imu.rate_hz) << "\n"
+     << "  gyroscope_noise_density: " << Num(imu.gyroscope_noise_density) << "      # [rad/s/sqrt(Hz)]\n"
+     << "  accelerometer_noise_density: " << Num(imu.accelerometer_noise_density) << "  # [m/s^2/sqrt(Hz)]\n"
+     << "  gyroscope_random_walk: " << Num(imu.gyroscope_random_walk) << "        # [rad/s^2/sqrt(Hz)]\n"
+     << "  accelerometer_random_walk: " << Num(imu.accelerometer_random_walk) << "    # [m/s^3/sqrt(Hz)]\n";
+  std::ofstream out(path);
+  if (!out) throw InputError(path, 0, "cannot write calibration file");
+  out << os.str();
+  if (!out) throw InputError(path, 0, "error while writing calibration file");
+}
+
+}  // namespace fsp
