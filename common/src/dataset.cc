@@ -1,0 +1,239 @@
+// OpenSource: recognises the kind of INPUT, validates it and merges frames and IMU in time order.
+#include "fsp/common/dataset.h"
+
+#include <algorithm>
+#include <filesystem>
+
+#include "dataset_internal.h"
+#include "fsp/common/error.h"
+
+namespace fsp {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// One implementation for every kind: the kinds differ only in how frames are listed and decoded.
+class RecordedSource : public Source {
+ public:
+  RecordedSource(InputKind kind, Calibration calib, internal::FrameList frames, std::vector<ImuSample> imu,
+                 bool decode)
+      : kind_(kind), calib_(std::move(calib)), decoder_(std::move(frames.decoder)), imu_(std::move(imu)),
+        decode_(decode) {
+    frame_times_ = std::move(frames.t_ns);
+    for (int64_t& t : frame_times_) t += calib_.time_offset_ns;
+  }
+
+  InputKind kind() const override { return kind_; }
+  const Calibration& calibration() const override { return calib_; }
+  const std::vector<int64_t>& frame_times() const override { return frame_times_; }
+  const std::vector<ImuSample>& imu() const override { return imu_; }
+
+  std::optional<Measurement> Next() override {
+    const bool imu_left = next_imu_ < imu_.size();
+    const bool frame_left = next_frame_ < frame_times_.size();
+    if (!imu_left && !frame_left) return std::nullopt;
+    // IMU samples at or before the next frame's time come first.
+    if (imu_left && (!frame_left || imu_[next_imu_].t_ns <= frame_times_[next_frame_])) {
+      return Measurement(imu_[next_imu_++]);
+    }
+    const int index = static_cast<int>(next_frame_++);
+    if (decode_) return Measurement(ReadFrame(index));
+    Frame frame;
+    frame.t_ns = frame_times_[static_cast<size_t>(index)];
+    frame.index = index;
+    frame.source = decoder_->Name(index);
+    return Measurement(std::move(frame));
+  }
+
+  Frame ReadFrame(int index) const override {
+    FSP_CHECK(index >= 0 && index < static_cast<int>(frame_times_.size()));
+    Frame frame;
+    frame.t_ns = frame_times_[static_cast<size_t>(index)];
+    frame.index = index;
+    frame.source = decoder_->Name(index);
+    frame.image = decoder_->Decode(index);
+    const PinholeRadtan& cam = calib_.camera;
+    if (frame.image.cols != cam.width || frame.image.rows != cam.height) {
+      throw InputError(frame.source, 0,
+                       "image size " + std::to_string(frame.image.cols) + "x" + std::to_string(frame.image.rows) +
+                           " differs from the calibration's " + std::to_string(cam.width) + "x" +
+                           std::to_string(cam.height) + " (" + calib_.source + ")");
+    }
+    return frame;
+  }
+
+ private:
+  InputKind kind_;
+  Calibration calib_;
+  std::unique_ptr<internal::FrameDecoder> decoder_;  // decoding advances a video reader: not logically const
+  std::vector<int64_t> frame_times_;
+  std::vector<ImuSample> imu_;
+  bool decode_ = true;
+  size_t next_imu_ = 0;
+  size_t next_frame_ = 0;
+};
+
+bool IsDir(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_directory(p, ec);
+}
+bool IsFile(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec);
+}
+
+// Fails unless frames and IMU share some time (a clock mix-up would otherwise run silently wrong).
+void CheckOverlap(const std::vector<int64_t>& frames, const std::vector<ImuSample>& imu, const std::string& imu_path,
+                  const Calibration& calib) {
+  if (frames.back() < imu.front().t_ns || frames.front() > imu.back().t_ns) {
+    throw InputError(imu_path, 0,
+                     "IMU samples span [" + std::to_string(imu.front().t_ns) + ", " + std::to_string(imu.back().t_ns) +
+                         "] ns but the frames span [" + std::to_string(frames.front()) + ", " +
+                         std::to_string(frames.back()) + "] ns: no overlap in time (check the clocks, time_offset_ns in " +
+                         calib.source + " or --frame-times)");
+  }
+}
+
+std::unique_ptr<Source> Finish(InputKind kind, Calibration calib, internal::FrameList frames,
+                               const std::string& imu_path, const SourceOptions& options) {
+  std::vector<ImuSample> imu = ReadImuCsv(imu_path);
+  auto source = std::make_unique<RecordedSource>(kind, std::move(calib), std::move(frames), std::move(imu),
+                                                 options.decode_images);
+  CheckOverlap(source->frame_times(), source->imu(), imu_path, source->calibration());
+  source->ReadFrame(0);  // the first image decodes and fits the calibration
+  return source;
+}
+
+std::unique_ptr<Source> OpenEuroc(const fs::path& mav0, const SourceOptions& options) {
+  const fs::path cam0 = mav0 / "cam0";
+  Calibration calib;
+  if (!options.calib.empty()) {
+    calib = ReadCalibration(options.calib);
+  } else {
+    const fs::path yaml = cam0 / "sensor.yaml";
+    if (!IsFile(yaml)) throw InputError(yaml.string(), 0, "camera calibration not found (or pass --calib FILE)");
+    calib = ReadCalibration(yaml.string());
+  }
+  const fs::path imu_yaml = mav0 / "imu0" / "sensor.yaml";
+  if (calib.imu_source.empty() && IsFile(imu_yaml)) {
+    calib.imu = ReadImuNoise(imu_yaml.string());
+    calib.imu_source = imu_yaml.string();
+  }
+  const fs::path csv = cam0 / "data.csv";
+  if (!IsFile(csv)) throw InputError(csv.string(), 0, "EuRoC image list not found");
+  internal::FrameList frames = internal::ListImagesFromCsv(csv.string(), (cam0 / "data").string());
+  const std::string imu_path = !options.imu.empty() ? options.imu : (mav0 / "imu0" / "data.csv").string();
+  return Finish(InputKind::kEuroc, std::move(calib), std::move(frames), imu_path, options);
+}
+
+void RequireCalibAndImu(const SourceOptions& options, const char* what) {
+  if (options.calib.empty() || options.imu.empty()) {
+    throw InputError(options.input, 0, std::string(what) + " needs --calib FILE and --imu FILE");
+  }
+}
+
+std::unique_ptr<Source> OpenImageFolder(const fs::path& dir, const SourceOptions& options) {
+  RequireCalibAndImu(options, "an image folder (not a EuRoC mav0 layout)");
+  Calibration calib = ReadCalibration(options.calib);
+  const fs::path csv = dir / "data.csv";
+  internal::FrameList frames;
+  if (IsFile(csv)) {
+    // EuRoC cam0 style: names relative to DIR/data/ when the images are there, else to DIR.
+    fs::path image_dir = dir;
+    if (IsDir(dir / "data")) {
+      TableReader probe(csv.string(), "image list");
+      std::vector<std::string> f;
+      if (probe.NextRow(&f) && f.size() >= 2 && IsFile(dir / "data" / f[1])) image_dir = dir / "data";
+    }
+    frames = internal::ListImagesFromCsv(csv.string(), image_dir.string());
+  } else {
+    frames = internal::ListImagesByName(dir.string());
+  }
+  return Finish(InputKind::kImageFolder, std::move(calib), std::move(frames), options.imu, options);
+}
+
+std::unique_ptr<Source> OpenVideo(const fs::path& file, const SourceOptions& options) {
+  RequireCalibAndImu(options, "a video");
+  Calibration calib = ReadCalibration(options.calib);
+  internal::FrameList frames = internal::ScanVideo(file.string(), options.frame_times);
+  return Finish(InputKind::kVideo, std::move(calib), std::move(frames), options.imu, options);
+}
+
+}  // namespace
+
+const char* ToString(InputKind kind) {
+  switch (kind) {
+    case InputKind::kEuroc: return "euroc";
+    case InputKind::kVideo: return "video";
+    case InputKind::kImageFolder: return "image-folder";
+  }
+  return "?";
+}
+
+bool SourceOptions::Check(std::string* why) const {
+  std::string w;
+  if (input.empty()) w = "no input given";
+  else if (!frame_times.empty() && IsDir(input)) w = "--frame-times applies to a video input only";
+  if (why) *why = w;
+  return w.empty();
+}
+
+std::unique_ptr<Source> OpenSource(const SourceOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw InputError(options.input, 0, why);
+  const fs::path input(options.input);
+  std::error_code ec;
+  if (!fs::exists(input, ec)) throw InputError(options.input, 0, "input not found");
+  if (IsDir(input)) {
+    if (IsDir(input / "mav0" / "cam0")) return OpenEuroc(input / "mav0", options);
+    if (IsDir(input / "cam0")) return OpenEuroc(input, options);
+    return OpenImageFolder(input, options);
+  }
+  return OpenVideo(input, options);
+}
+
+SourceSummary Summarize(const Source& source) {
+  SourceSummary s;
+  s.kind = source.kind();
+  const std::vector<int64_t>& ft = source.frame_times();
+  const std::vector<ImuSample>& imu = source.imu();
+  const auto median_rate = [](std::vector<int64_t> dt) {
+    if (dt.empty()) return 0.0;
+    std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
+    const int64_t m = dt[dt.size() / 2];
+    return m > 0 ? 1e9 / static_cast<double>(m) : 0.0;
+  };
+  s.frames = static_cast<int>(ft.size());
+  if (!ft.empty()) {
+    s.t_first_ns = ft.front();
+    s.t_last_ns = ft.back();
+    std::vector<int64_t> dt;
+    for (size_t i = 1; i < ft.size(); ++i) dt.push_back(ft[i] - ft[i - 1]);
+    s.frame_rate_hz = median_rate(std::move(dt));
+  }
+  s.imu_samples = static_cast<int>(imu.size());
+  if (!imu.empty()) {
+    s.imu_t_first_ns = imu.front().t_ns;
+    s.imu_t_last_ns = imu.back().t_ns;
+    // A gap is an interval longer than 5 nominal IMU periods.
+    const double gap_ns = 5.0 * 1e9 / source.calibration().imu.rate_hz;
+    std::vector<int64_t> dt;
+    for (size_t i = 1; i < imu.size(); ++i) {
+      const int64_t d = imu[i].t_ns - imu[i - 1].t_ns;
+      dt.push_back(d);
+      if (d > s.largest_imu_gap_ns) {
+        s.largest_imu_gap_ns = d;
+        s.largest_imu_gap_at_ns = imu[i].t_ns;
+      }
+      if (static_cast<double>(d) > gap_ns) ++s.imu_gaps;
+    }
+    s.imu_rate_hz = median_rate(std::move(dt));
+    for (int64_t t : ft) {
+      if (t < s.imu_t_first_ns || t > s.imu_t_last_ns) ++s.frames_outside_imu;
+    }
+  }
+  return s;
+}
+
+}  // namespace fsp
