@@ -1,0 +1,280 @@
+#include "fsp/eval/evaluate.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "fsp/common/error.h"
+
+namespace fsp::eval {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string IfFile(const fs::path& p) { return fs::is_regular_file(p) ? p.string() : std::string(); }
+
+std::string Format(const char* fmt, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), fmt, v);
+  return buf;
+}
+
+}  // namespace
+
+EvalPaths ResolvePaths(const std::string& gt, const std::string& est) {
+  EvalPaths p;
+  if (gt.empty() || !fs::exists(gt)) throw InputError(gt, 0, "ground truth not found");
+  if (fs::is_directory(gt)) {
+    // DIR/mav0/... (a sequence) or DIR being mav0 itself (its sequence files one level up).
+    fs::path seq = gt, mav0 = fs::path(gt) / "mav0";
+    if (!fs::is_directory(mav0)) {
+      mav0 = gt;
+      seq = fs::path(gt).lexically_normal().parent_path();
+      if (fs::is_regular_file(fs::path(gt) / "objects_gt.json") || fs::is_regular_file(fs::path(gt) / "observations_gt.csv")) {
+        seq = gt;
+      }
+    }
+    p.gt_trajectory = IfFile(mav0 / "state_groundtruth_estimate0" / "data.csv");
+    p.objects_gt = IfFile(seq / "objects_gt.json");
+    p.observations_gt = IfFile(seq / "observations_gt.csv");
+    if (p.gt_trajectory.empty() && p.objects_gt.empty() && p.observations_gt.empty()) {
+      throw InputError(gt, 0,
+                       "no ground truth in this folder (expected mav0/state_groundtruth_estimate0/data.csv, "
+                       "objects_gt.json or observations_gt.csv)");
+    }
+  } else {
+    p.gt_trajectory = gt;
+  }
+
+  if (est.empty() || !fs::exists(est)) throw InputError(est, 0, "estimate not found");
+  if (fs::is_directory(est)) {
+    p.est_trajectory = IfFile(fs::path(est) / "trajectory.tum");
+    p.map = IfFile(fs::path(est) / "map.json");
+    p.observations = IfFile(fs::path(est) / "observations.csv");
+    p.run_json = IfFile(fs::path(est) / "run.json");
+    if (p.est_trajectory.empty() && p.map.empty() && p.observations.empty() && p.run_json.empty()) {
+      throw InputError(est, 0,
+                       "no run output in this folder (expected trajectory.tum, map.json, observations.csv or "
+                       "run.json)");
+    }
+  } else {
+    p.est_trajectory = est;
+  }
+  return p;
+}
+
+bool EvalOptions::Check(std::string* why) const { return trajectory.Check(why) && frontend.Check(why); }
+
+std::optional<RuntimeMetrics> ReadRuntime(const std::string& run_json) {
+  std::ifstream in(run_json);
+  if (!in) throw InputError(run_json, 0, "cannot open run.json");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(run_json, 0, std::string("not valid JSON: ") + e.what());
+  }
+  if (!j.is_object()) throw InputError(run_json, 0, "expected a JSON object");
+  RuntimeMetrics r;
+  auto get = [&](const char* key, std::optional<double>* out) {
+    if (!j.contains(key)) return;
+    if (!j.at(key).is_number() || !std::isfinite(j.at(key).get<double>())) {
+      throw InputError(run_json, 0, std::string("\"") + key + "\" is not a finite number");
+    }
+    *out = j.at(key).get<double>();
+  };
+  get("frames", &r.frames);
+  get("wall_s", &r.wall_s);
+  get("realtime_factor", &r.realtime_factor);
+  if (!r.frames && !r.wall_s && !r.realtime_factor) return std::nullopt;
+  return r;
+}
+
+Metrics Evaluate(const EvalPaths& paths, const EvalOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw InputError("eval options: " + why);
+  Metrics m;
+  m.paths = paths;
+
+  if (!paths.gt_trajectory.empty() && !paths.est_trajectory.empty()) {
+    m.trajectory = EvaluateTrajectory(ReadTrajectory(paths.gt_trajectory), ReadTrajectory(paths.est_trajectory),
+                                      options.trajectory);
+  } else {
+    m.notes.push_back(paths.gt_trajectory.empty() ? "no ground-truth trajectory" : "no estimated trajectory");
+  }
+
+  if (!paths.objects_gt.empty() && !paths.map.empty()) {
+    const std::vector<ObjectRecord> gt = ReadObjectsJson(paths.objects_gt);
+    const std::vector<ObjectRecord> est = ReadObjectsJson(paths.map);
+    if (gt.empty()) {
+      m.notes.push_back("objects: the ground truth has no objects");
+    } else if (!m.trajectory) {
+      m.notes.push_back("objects: need both trajectories to bring the map into the ground truth's frame");
+    } else {
+      m.objects = EvaluateObjects(gt, est, m.trajectory->alignment);
+    }
+  }
+
+  if (!paths.observations_gt.empty() && !paths.observations.empty()) {
+    const std::vector<CornerRow> gt = ReadCornerRows(paths.observations_gt);
+    const std::vector<CornerRow> est = ReadCornerRows(paths.observations);
+    if (gt.empty()) {
+      m.notes.push_back("front end: the ground truth has no observations");
+    } else {
+      m.frontend = EvaluateFrontend(gt, est, options.frontend);
+    }
+  }
+
+  if (!paths.run_json.empty()) m.runtime = ReadRuntime(paths.run_json);
+
+  if (!m.trajectory && !m.objects && !m.frontend && !m.runtime) {
+    std::string msg = "nothing to evaluate: ground truth and estimate share no trajectory, objects, "
+                      "observations or runtime";
+    for (const std::string& n : m.notes) msg += "; " + n;
+    throw InputError(msg);
+  }
+  return m;
+}
+
+nlohmann::json ToJson(const Metrics& m) {
+  nlohmann::json j = nlohmann::json::object();
+  if (m.trajectory) {
+    const TrajectoryMetrics& t = *m.trajectory;
+    nlohmann::json b;
+    b["pairs"] = t.pairs;
+    b["ref_poses"] = t.ref_poses;
+    b["est_poses"] = t.est_poses;
+    b["align"] = ToString(t.alignment.mode);
+    b["ate_rmse_m"] = t.ate.rmse;
+    b["ate_mean_m"] = t.ate.mean;
+    b["ate_median_m"] = t.ate.median;
+    b["ate_std_m"] = t.ate.std;
+    b["ate_min_m"] = t.ate.min;
+    b["ate_max_m"] = t.ate.max;
+    if (t.rpe_trans.count > 0) {
+      b["rpe_pairs"] = t.rpe_trans.count;
+      b["rpe_trans_rmse_m"] = t.rpe_trans.rmse;
+      b["rpe_trans_median_m"] = t.rpe_trans.median;
+      b["rpe_rot_rmse_deg"] = t.rpe_rot.rmse;
+      b["rpe_rot_median_deg"] = t.rpe_rot.median;
+    }
+    if (t.alignment.mode == AlignMode::kSim3) {
+      b["scale"] = t.alignment.scale;
+      b["scale_err"] = t.scale_error;
+    }
+    // The alignment itself, p_ref = s R p_est + t, as a 4x4 row-major matrix [s R, t; 0 0 0 1].
+    Mat4 S = Mat4::Identity();
+    S.topLeftCorner<3, 3>() = t.alignment.scale * t.alignment.R;
+    S.topRightCorner<3, 1>() = t.alignment.t;
+    std::vector<double> flat;
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) flat.push_back(S(r, c));
+    }
+    b["S_ref_est"] = flat;
+    j["trajectory"] = b;
+  }
+  if (m.objects) {
+    const ObjectMetrics& o = *m.objects;
+    nlohmann::json b;
+    b["gt"] = o.gt;
+    b["estimated"] = o.estimated;
+    b["matched"] = o.matched;
+    if (o.matched > 0) {
+      b["corner_err_mean_m"] = o.corner_err.mean;
+      b["corner_err_median_m"] = o.corner_err.median;
+      b["width_err_mean_m"] = o.width_err.mean;
+      b["width_err_max_m"] = o.width_err.max;
+      b["height_err_mean_m"] = o.height_err.mean;
+      b["height_err_max_m"] = o.height_err.max;
+      b["normal_err_mean_deg"] = o.normal_err_deg.mean;
+      nlohmann::json per = nlohmann::json::array();
+      for (const ObjectError& e : o.per_object) {
+        per.push_back({{"id", e.id},
+                       {"corner_err_mean_m", e.corner_err_mean_m},
+                       {"width_err_m", e.width_err_m},
+                       {"height_err_m", e.height_err_m},
+                       {"normal_err_deg", e.normal_err_deg}});
+      }
+      b["per_object"] = per;
+    }
+    j["objects"] = b;
+  }
+  if (m.frontend) {
+    const FrontendMetrics& f = *m.frontend;
+    nlohmann::json b;
+    if (f.recall) b["recall"] = *f.recall;
+    if (f.precision) b["precision"] = *f.precision;
+    if (f.corner_err_px.count > 0) {
+      b["corner_err_px_median"] = f.corner_err_px.median;
+      b["corner_err_px_mean"] = f.corner_err_px.mean;
+    }
+    b["id_switches"] = f.id_switches;
+    b["gt_rows"] = f.gt_rows;
+    b["gt_fully_visible"] = f.gt_fully_visible;
+    b["est_rows"] = f.est_rows;
+    b["matched"] = f.matched;
+    b["corner_order_errors"] = f.corner_order_errors;
+    j["frontend"] = b;
+  }
+  if (m.runtime) {
+    nlohmann::json b = nlohmann::json::object();
+    if (m.runtime->frames) {
+      const double fr = *m.runtime->frames;
+      if (fr == std::floor(fr) && std::abs(fr) < 9e15) b["frames"] = static_cast<int64_t>(fr);
+      else b["frames"] = fr;
+    }
+    if (m.runtime->wall_s) b["wall_s"] = *m.runtime->wall_s;
+    if (m.runtime->realtime_factor) b["realtime_factor"] = *m.runtime->realtime_factor;
+    j["runtime"] = b;
+  }
+  return j;
+}
+
+std::string FormatSummary(const Metrics& m) {
+  std::ostringstream os;
+  if (m.trajectory) {
+    const TrajectoryMetrics& t = *m.trajectory;
+    os << "trajectory: " << t.pairs << " pairs (" << t.ref_poses << " reference, " << t.est_poses
+       << " estimated poses), " << ToString(t.alignment.mode) << " alignment";
+    if (t.alignment.mode == AlignMode::kSim3) os << ", scale " << Format("%.6f", t.alignment.scale);
+    os << "\n  ATE rmse " << Format("%.6f", t.ate.rmse) << " m, mean " << Format("%.6f", t.ate.mean) << " m, median "
+       << Format("%.6f", t.ate.median) << " m, max " << Format("%.6f", t.ate.max) << " m\n";
+    if (t.rpe_trans.count > 0) {
+      os << "  RPE (1 frame) rmse " << Format("%.6f", t.rpe_trans.rmse) << " m, " << Format("%.4f", t.rpe_rot.rmse)
+         << " deg over " << t.rpe_trans.count << " steps\n";
+    }
+  }
+  if (m.objects) {
+    const ObjectMetrics& o = *m.objects;
+    os << "objects: " << o.matched << " matched (" << o.gt << " in the ground truth, " << o.estimated
+       << " in the map)";
+    if (o.matched > 0) {
+      os << "\n  corner error mean " << Format("%.4f", o.corner_err.mean) << " m, median "
+         << Format("%.4f", o.corner_err.median) << " m; width error mean " << Format("%.4f", o.width_err.mean)
+         << " m, max " << Format("%.4f", o.width_err.max) << " m; height error mean "
+         << Format("%.4f", o.height_err.mean) << " m, max " << Format("%.4f", o.height_err.max) << " m";
+    }
+    os << "\n";
+  }
+  if (m.frontend) {
+    const FrontendMetrics& f = *m.frontend;
+    os << "front end: recall " << (f.recall ? Format("%.4f", *f.recall) : std::string("n/a")) << ", precision "
+       << (f.precision ? Format("%.4f", *f.precision) : std::string("n/a"));
+    if (f.corner_err_px.count > 0) os << ", corner error median " << Format("%.3f", f.corner_err_px.median) << " px";
+    os << ", " << f.id_switches << " id switches\n";
+  }
+  if (m.runtime) {
+    os << "runtime:";
+    if (m.runtime->frames) os << " " << Format("%.0f", *m.runtime->frames) << " frames";
+    if (m.runtime->wall_s) os << " in " << Format("%.2f", *m.runtime->wall_s) << " s";
+    if (m.runtime->realtime_factor) os << " (" << Format("%.2f", *m.runtime->realtime_factor) << "x real time)";
+    os << "\n";
+  }
+  for (const std::string& n : m.notes) os << "(" << n << ")\n";
+  return os.str();
+}
+
+}  // namespace fsp::eval
