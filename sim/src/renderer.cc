@@ -6,6 +6,8 @@
 #include <sstream>
 #include <utility>
 
+#include <opencv2/core/utility.hpp>
+
 #include "fsp/common/error.h"
 #include "textures.h"
 
@@ -131,18 +133,22 @@ void Renderer::Impl::BuildRayTable() {
   const int W = camera.width, H = camera.height;
   rays.resize(static_cast<size_t>(W) * H * samples * 3);
   const bool distorted = camera.HasDistortion();
-  size_t k = 0;
-  for (int py = 0; py < H; ++py)
-    for (int px = 0; px < W; ++px)
-      for (const Vec2d& o : offsets) {
-        const Vec2 uv(px + o.x, py + o.y);
-        // Distorted pixel -> normalised coordinates (x, y) of the ray (x, y, 1) in C.
-        Vec2 xy((uv.x() - camera.cx) / camera.fx, (uv.y() - camera.cy) / camera.fy);
-        if (distorted) xy = camera.Undistort(xy);
-        rays[k++] = static_cast<float>(xy.x());
-        rays[k++] = static_cast<float>(xy.y());
-        rays[k++] = static_cast<float>(1.0 / std::sqrt(xy.squaredNorm() + 1.0));
-      }
+  // Rows are independent: the parallel loop fills the same table as a serial one.
+  cv::parallel_for_(cv::Range(0, H), [&](const cv::Range& rows) {
+    for (int py = rows.start; py < rows.end; ++py) {
+      size_t k = static_cast<size_t>(py) * W * samples * 3;
+      for (int px = 0; px < W; ++px)
+        for (const Vec2d& o : offsets) {
+          const Vec2 uv(px + o.x, py + o.y);
+          // Distorted pixel -> normalised coordinates (x, y) of the ray (x, y, 1) in C.
+          Vec2 xy((uv.x() - camera.cx) / camera.fx, (uv.y() - camera.cy) / camera.fy);
+          if (distorted) xy = camera.Undistort(xy);
+          rays[k++] = static_cast<float>(xy.x());
+          rays[k++] = static_cast<float>(xy.y());
+          rays[k++] = static_cast<float>(1.0 / std::sqrt(xy.squaredNorm() + 1.0));
+        }
+    }
+  });
   tiles_x = (W + kTile - 1) / kTile;
   tiles_y = (H + kTile - 1) / kTile;
   tile_box.assign(static_cast<size_t>(tiles_x) * tiles_y * 4, 0.f);

@@ -10,6 +10,7 @@
 
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "fsp/common/error.h"
@@ -69,18 +70,21 @@ void Fill(cv::Mat* tex, double width_m, double height_m, int ss, const F& f) {
   const int W = tex->cols, H = tex->rows;
   const double dx = width_m / std::max(W - 1, 1), dy = height_m / std::max(H - 1, 1);
   const double inv = 1.0 / (ss * ss);
-  for (int j = 0; j < H; ++j) {
-    float* row = tex->ptr<float>(j);
-    const double y0 = height_m - j * dy;
-    for (int i = 0; i < W; ++i) {
-      const double x0 = i * dx;
-      double sum = 0.0;
-      for (int sj = 0; sj < ss; ++sj)
-        for (int si = 0; si < ss; ++si)
-          sum += f(x0 + ((si + 0.5) / ss - 0.5) * dx, y0 + ((sj + 0.5) / ss - 0.5) * dy);
-      row[i] = static_cast<float>(sum * inv);
+  // Rows are independent (f is pure), so the parallel fill gives the same texels as a serial one.
+  cv::parallel_for_(cv::Range(0, H), [&](const cv::Range& rows) {
+    for (int j = rows.start; j < rows.end; ++j) {
+      float* row = tex->ptr<float>(j);
+      const double y0 = height_m - j * dy;
+      for (int i = 0; i < W; ++i) {
+        const double x0 = i * dx;
+        double sum = 0.0;
+        for (int sj = 0; sj < ss; ++sj)
+          for (int si = 0; si < ss; ++si)
+            sum += f(x0 + ((si + 0.5) / ss - 0.5) * dx, y0 + ((sj + 0.5) / ss - 0.5) * dy);
+        row[i] = static_cast<float>(sum * inv);
+      }
     }
-  }
+  });
 }
 
 // Distance (metres) from (x, y) to the nearest edge of the [0, w] x [0, h] rectangle, negative outside.
