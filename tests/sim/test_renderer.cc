@@ -353,6 +353,29 @@ TEST(Renderer, MotionBlurAveragesPosesAlongTheExposure) {
   EXPECT_GT(cv::norm(blurred, renderer.Render(open), cv::NORM_L1) / blurred.total(), 1.0);
 }
 
+// Image sizes that are not multiples of the internal tile size: every pixel is rendered, including
+// the last partial rows and columns.
+TEST(Renderer, OddImageSizeRendersEveryPixel) {
+  PinholeRadtan cam;
+  cam.width = 75;
+  cam.height = 53;
+  cam.fx = cam.fy = 60.0;
+  cam.cx = 37.0;
+  cam.cy = 26.0;
+  // A 20 x 20 m bright plate 2 m ahead (its dark border far outside the view), facing the camera.
+  const TexturedQuad plate = Quad(-1, {-10, 2, -10}, {20, 0, 0}, {0, 0, 20}, TextureKind::kPlain);
+  RenderOptions opt;
+  opt.background = 0.0;
+  opt.room_texels_per_m = 20.0;
+  const Renderer renderer(cam, {plate}, opt);
+  const cv::Mat img = renderer.Render(LookAt({0, 0, 0}, {0, 1, 0}, 0.0));
+  ASSERT_EQ(img.cols, 75);
+  ASSERT_EQ(img.rows, 53);
+  double lo = 0.0, hi = 0.0;
+  cv::minMaxLoc(img, &lo, &hi);
+  EXPECT_GT(lo, 150.0) << "some pixel was not covered by the plate";
+}
+
 TEST(Renderer, OptionsCheck) {
   std::string why;
   EXPECT_TRUE(RenderOptions{}.Check(&why)) << why;
