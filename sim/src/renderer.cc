@@ -132,20 +132,17 @@ void Renderer::Impl::BuildRayTable() {
       offsets.push_back({(i + (j + 0.5) / n) / n - 0.5, (j + (i + 0.5) / n) / n - 0.5});
   const int W = camera.width, H = camera.height;
   rays.resize(static_cast<size_t>(W) * H * samples * 3);
-  const bool distorted = camera.HasDistortion();
   // Rows are independent: the parallel loop fills the same table as a serial one.
   cv::parallel_for_(cv::Range(0, H), [&](const cv::Range& rows) {
     for (int py = rows.start; py < rows.end; ++py) {
       size_t k = static_cast<size_t>(py) * W * samples * 3;
       for (int px = 0; px < W; ++px)
         for (const Vec2d& o : offsets) {
-          const Vec2 uv(px + o.x, py + o.y);
-          // Distorted pixel -> normalised coordinates (x, y) of the ray (x, y, 1) in C.
-          Vec2 xy((uv.x() - camera.cx) / camera.fx, (uv.y() - camera.cy) / camera.fy);
-          if (distorted) xy = camera.Undistort(xy);
-          rays[k++] = static_cast<float>(xy.x());
-          rays[k++] = static_cast<float>(xy.y());
-          rays[k++] = static_cast<float>(1.0 / std::sqrt(xy.squaredNorm() + 1.0));
+          // Distorted pixel -> its ray (x, y, 1) in C (the inverse of the camera's Project).
+          const Vec3 ray = camera.Unproject(Vec2(px + o.x, py + o.y));
+          rays[k++] = static_cast<float>(ray.x());
+          rays[k++] = static_cast<float>(ray.y());
+          rays[k++] = static_cast<float>(1.0 / ray.norm());
         }
     }
   });
