@@ -345,10 +345,10 @@ void TextureSize(const TexturedQuad& quad, double texels_per_m, int max_side, in
   double w_m = 0.0, h_m = 0.0;
   TextureExtent(quad, &w_m, &h_m);
   if (quad.texture == TextureKind::kTag) {
-    // (10 m + 1) texels: cell boundaries on texel centres; at least 8 texels per cell.
+    // (10 m + 1) texels: cell boundaries on texel centres; at least 16 texels per cell (sharp up close).
     const int max_m = std::max(1, (max_side - 1) / kTagTotalCells);
     const int m = std::clamp(static_cast<int>(std::ceil(std::max(w_m, h_m) * texels_per_m / kTagTotalCells)),
-                             std::min(8, max_m), max_m);
+                             std::min(16, max_m), max_m);
     *width_px = *height_px = kTagTotalCells * m + 1;
     return;
   }
