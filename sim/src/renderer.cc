@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <numeric>
 #include <sstream>
 #include <utility>
 
@@ -117,8 +118,14 @@ struct Renderer::Impl {
   std::vector<float> tile_box; // per tile: xmin, xmax, ymin, ymax of its rays (normalised), padded
 
   void BuildRayTable();
-  // Adds the render at T_W_C, multiplied by weight, into accum (CV_32F).
-  void RenderInto(const Rigid3& T_W_C, float weight, cv::Mat* accum) const;
+  // One pose's quads in C and, per tile, the indices of the quads that may cover it.
+  struct PoseSetup {
+    std::vector<FrameQuad> quads;
+    std::vector<std::vector<uint16_t>> tiles;
+  };
+  PoseSetup Setup(const Rigid3& T_W_C) const;
+  // Renders into accum (CV_32F, grey in [0, 1]); several poses share each pixel's rays (motion blur).
+  void RenderInto(const std::vector<Rigid3>& poses, cv::Mat* accum) const;
 };
 
 void Renderer::Impl::BuildRayTable() {
@@ -218,17 +225,13 @@ bool PolygonOverlapsBox(const std::vector<Vec2d>& poly, double orient, double x0
 
 }  // namespace
 
-void Renderer::Impl::RenderInto(const Rigid3& T_W_C, float weight, cv::Mat* accum) const {
-  const int W = camera.width, H = camera.height;
+Renderer::Impl::PoseSetup Renderer::Impl::Setup(const Rigid3& T_W_C) const {
   const Rigid3 T_C_W = T_W_C.Inverse();
   const Mat3 R_C_W = T_C_W.R();
-  const float ambient = static_cast<float>(options.ambient);
-  const float diffuse = 1.f - ambient;
-  const float background = static_cast<float>(options.background);
-
-  // Per-frame quads in C and the tiles each may cover.
-  std::vector<FrameQuad> fq;
-  std::vector<std::vector<uint16_t>> tile_quads(static_cast<size_t>(tiles_x) * tiles_y);
+  PoseSetup out;
+  std::vector<FrameQuad>& fq = out.quads;
+  std::vector<std::vector<uint16_t>>& tile_quads = out.tiles;
+  tile_quads.resize(static_cast<size_t>(tiles_x) * tiles_y);
   for (size_t qi = 0; qi < geometry.size(); ++qi) {
     const Geometry& g = geometry[qi];
     const Vec3 o = T_C_W * g.origin;
@@ -277,22 +280,54 @@ void Renderer::Impl::RenderInto(const Rigid3& T_W_C, float weight, cv::Mat* accu
     fq.push_back(f);
   }
 
-  const float inv_samples = weight / static_cast<float>(samples);
-  std::vector<const FrameQuad*> cand;
+  return out;
+}
+
+void Renderer::Impl::RenderInto(const std::vector<Rigid3>& poses, cv::Mat* accum) const {
+  const int W = camera.width, H = camera.height;
+  const float ambient = static_cast<float>(options.ambient);
+  const float diffuse = 1.f - ambient;
+  const float background = static_cast<float>(options.background);
+  // Poses share the rays: slot j = 0 .. P S - 1 of a pixel uses sub-pixel sample j mod S and pose
+  // (j + rot(px, py)) mod N. P = N / gcd(S, N) passes make P S a multiple of N, so every pose gets the
+  // same number of rays in every pixel; the pseudo-random rotation decorrelates pose and sub-pixel
+  // offset across neighbouring pixels. Cost: P renders instead of N. With one pose this is plain
+  // supersampling.
+  const int N = static_cast<int>(poses.size());
+  const int S = samples;
+  const int P = N / std::gcd(S, N);
+  const float inv_slots = 1.f / static_cast<float>(P * S);
+  std::vector<PoseSetup> setups;
+  setups.reserve(N);
+  for (const Rigid3& T_W_C : poses) setups.push_back(Setup(T_W_C));
+
+  std::vector<std::vector<const FrameQuad*>> cands(N);
   for (int ty = 0; ty < tiles_y; ++ty)
     for (int tx = 0; tx < tiles_x; ++tx) {
-      const std::vector<uint16_t>& list = tile_quads[static_cast<size_t>(ty) * tiles_x + tx];
-      cand.clear();
-      for (uint16_t i : list) cand.push_back(&fq[i]);
-      const int nc = static_cast<int>(cand.size());
+      const size_t tile = static_cast<size_t>(ty) * tiles_x + tx;
+      for (int k = 0; k < N; ++k) {
+        cands[k].clear();
+        for (uint16_t i : setups[k].tiles[tile]) cands[k].push_back(&setups[k].quads[i]);
+      }
       const int px0 = tx * kTile, px1 = std::min(W, px0 + kTile);
       const int py0 = ty * kTile, py1 = std::min(H, py0 + kTile);
       for (int py = py0; py < py1; ++py) {
         float* out = accum->ptr<float>(py);
-        const float* r = &rays[(static_cast<size_t>(py) * W + px0) * samples * 3];
         for (int px = px0; px < px1; ++px) {
+          const float* rays_px = &rays[(static_cast<size_t>(py) * W + px) * S * 3];
           float sum = 0.f;
-          for (int s = 0; s < samples; ++s, r += 3) {
+          // Per-pixel rotation of the pose sequence from an integer hash of (px, py), so that the
+          // pose/sub-pixel pairing does not form a visible pattern.
+          uint32_t h = static_cast<uint32_t>(px) * 0x9E3779B1u ^ static_cast<uint32_t>(py) * 0x85EBCA77u;
+          h ^= h >> 15;
+          h *= 0x2C1B3C6Du;
+          h ^= h >> 12;
+          int pose = static_cast<int>(h % static_cast<uint32_t>(N));
+          for (int j = 0; j < P * S; ++j) {
+            const float* r = rays_px + (j % S) * 3;
+            const std::vector<const FrameQuad*>& cand = cands[pose];
+            if (++pose == N) pose = 0;
+            const int nc = static_cast<int>(cand.size());
             const float x = r[0], y = r[1];
             // Nearest hit along the ray (x, y, 1): smallest biased depth t inside its rectangle.
             float best = FLT_MAX, ba = 0.f, bb = 0.f, bden = 0.f;
@@ -318,7 +353,7 @@ void Renderer::Impl::RenderInto(const Rigid3& T_W_C, float weight, cv::Mat* accu
               sum += hit->tex->Sample(ba, bb) * (ambient + diffuse * std::abs(bden) * r[2]);
             }
           }
-          out[px] += sum * inv_samples;
+          out[px] = sum * inv_slots;
         }
       }
     }
@@ -360,8 +395,8 @@ Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 const std::vector<TexturedQuad>& Renderer::quads() const { return impl_->quads; }
 
 cv::Mat Renderer::Render(const Rigid3& T_W_C) const {
-  cv::Mat accum(impl_->camera.height, impl_->camera.width, CV_32FC1, cv::Scalar(0));
-  impl_->RenderInto(T_W_C, 1.f, &accum);
+  cv::Mat accum(impl_->camera.height, impl_->camera.width, CV_32FC1);
+  impl_->RenderInto({T_W_C}, &accum);
   cv::Mat out;
   accum.convertTo(out, CV_8UC1, 255.0);
   return out;
@@ -369,9 +404,10 @@ cv::Mat Renderer::Render(const Rigid3& T_W_C) const {
 
 cv::Mat Renderer::Render(const Rigid3& T_W_C_open, const Rigid3& T_W_C_close) const {
   const int n = impl_->options.motion_blur_samples;
-  cv::Mat accum(impl_->camera.height, impl_->camera.width, CV_32FC1, cv::Scalar(0));
-  for (int k = 0; k < n; ++k)
-    impl_->RenderInto(Interpolate(T_W_C_open, T_W_C_close, (k + 0.5) / n), 1.f / static_cast<float>(n), &accum);
+  std::vector<Rigid3> poses;
+  for (int k = 0; k < n; ++k) poses.push_back(Interpolate(T_W_C_open, T_W_C_close, (k + 0.5) / n));
+  cv::Mat accum(impl_->camera.height, impl_->camera.width, CV_32FC1);
+  impl_->RenderInto(poses, &accum);
   cv::Mat out;
   accum.convertTo(out, CV_8UC1, 255.0);
   return out;

@@ -3,7 +3,8 @@
 //
 //   bench_render [--write_png=PREFIX] [Google Benchmark flags]
 //
-// --write_png writes PREFIX_<k>.png for a few of the benchmark's poses (supersampling 2), to look at.
+// --write_png writes PREFIX_<k>.png for a few of the benchmark's poses (supersampling 2) and
+// PREFIX_blur.png (motion blur, 16 poses), to look at.
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -129,6 +130,25 @@ void BM_Render(benchmark::State& state) {
 BENCHMARK(BM_Render)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Render)->Arg(2)->Threads(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// Motion blur with 4 or 16 poses per frame at supersampling 2: the poses share each pixel's rays
+// (4 poses cost one render, 16 poses four).
+void BM_RenderBlur(benchmark::State& state) {
+  RenderOptions opt;
+  opt.motion_blur_samples = static_cast<int>(state.range(0));
+  const Renderer renderer(Camera640(), RoomScene(), opt);
+  const std::vector<Rigid3> poses = Poses();
+  size_t k = 0;
+  for (auto _ : state) {
+    const Rigid3& open = poses[k++ % poses.size()];
+    const Rigid3 close(open.R() * RotY(0.05), open.translation());
+    cv::Mat img = renderer.Render(open, close);
+    benchmark::DoNotOptimize(img.data);
+  }
+  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()),
+                                                      benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_RenderBlur)->Arg(4)->Arg(16)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // Construction: texture generation and the per-pixel ray table (once per `fsp render`).
 void BM_Construct(benchmark::State& state) {
   for (auto _ : state) {
@@ -151,6 +171,12 @@ int main(int argc, char** argv) {
       const auto poses = fsp::sim::Poses();
       for (size_t k = 0; k < poses.size(); k += 2)
         cv::imwrite(prefix + "_" + std::to_string(k) + ".png", renderer.Render(poses[k]));
+      // Motion blur: 16 poses over a 0.05 rad yaw (about 20 px of motion at the image centre).
+      fsp::sim::RenderOptions blur;
+      blur.motion_blur_samples = 16;
+      const fsp::sim::Renderer blurred(fsp::sim::Camera640(), fsp::sim::RoomScene(), blur);
+      const fsp::Rigid3 close(poses[0].R() * fsp::RotY(0.05), poses[0].translation());
+      cv::imwrite(prefix + "_blur.png", blurred.Render(poses[0], close));
       continue;
     }
     args.push_back(argv[i]);
