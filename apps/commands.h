@@ -8,5 +8,8 @@
 namespace fsp::apps {
 
 void AddInfoCommand(CLI::App& root);
+void AddRenderCommand(CLI::App& root);
+void AddEvalCommand(CLI::App& root);
+void AddDetectCommand(CLI::App& root);
 
 }  // namespace fsp::apps

@@ -15,6 +15,9 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "fsp 0.1.0");
   fsp::apps::AddInfoCommand(app);
+  fsp::apps::AddRenderCommand(app);
+  fsp::apps::AddEvalCommand(app);
+  fsp::apps::AddDetectCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

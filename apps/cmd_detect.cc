@@ -1,0 +1,115 @@
+// fsp detect IMAGE... [--frontend rect|apriltag] [--calib FILE] [--out DIR]: corners of the rectangles or
+// AprilTags in single images, a detections.csv and a drawn PNG per image (CONTRACT.md).
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "commands.h"
+#include "fsp/common/calibration.h"
+#include "fsp/common/error.h"
+#include "fsp/frontend/apriltag_detector.h"
+#include "fsp/frontend/draw.h"
+#include "fsp/frontend/image_io.h"
+#include "fsp/frontend/rect_detector.h"
+
+namespace fsp::apps {
+
+namespace {
+
+struct DetectArgs {
+  std::vector<std::string> images;
+  std::string frontend = "rect";
+  std::string calib;
+  std::string out;
+  std::string family = "tag36h11";
+};
+
+void RunDetect(const DetectArgs& args) {
+  std::optional<Calibration> calib;
+  if (!args.calib.empty()) calib = ReadCalibration(args.calib);
+  std::unique_ptr<frontend::RectDetector> rect;
+  std::unique_ptr<frontend::AprilTagDetector> tags;
+  if (args.frontend == "apriltag") {
+    frontend::AprilTagDetector::Options o;
+    o.family = args.family;
+    tags = std::make_unique<frontend::AprilTagDetector>(o);
+  } else {
+    rect = std::make_unique<frontend::RectDetector>();
+  }
+  std::ofstream csv;
+  if (!args.out.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(args.out, ec);
+    if (ec) throw InputError(args.out, 0, "cannot create output directory (" + ec.message() + ")");
+    csv.open(args.out + "/detections.csv");
+    if (!csv) throw InputError(args.out + "/detections.csv", 0, "cannot write");
+    csv << "image,tag_id,class,u1,v1,u2,v2,u3,v3,u4,v4,score\n";
+  }
+  for (const std::string& path : args.images) {
+    const cv::Mat gray = frontend::ReadGray8(path);
+    const PinholeRadtan* cam = nullptr;
+    if (calib) {
+      if (calib->camera.width != gray.cols || calib->camera.height != gray.rows)
+        throw InputError(path, 0, "image is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                                      " but the calibration " + args.calib + " is for " +
+                                      std::to_string(calib->camera.width) + "x" +
+                                      std::to_string(calib->camera.height));
+      cam = &calib->camera;
+    }
+    std::vector<frontend::Detection> dets;
+    frontend::StageTimes times;
+    if (tags) {
+      auto r = tags->Detect(gray, cam);
+      dets = std::move(r.detections);
+      times = r.times;
+    } else {
+      auto r = rect->Detect(gray, cam);
+      dets = std::move(r.detections);
+      times = r.times;
+    }
+    const std::string name = std::filesystem::path(path).filename().string();
+    std::printf("%s: %zu %s in %.1f ms (%s)\n", path.c_str(), dets.size(),
+                tags ? "tags" : "rectangles", times.Total(), times.ToString().c_str());
+    if (!args.out.empty()) {
+      char buf[512];
+      for (const auto& d : dets) {
+        std::snprintf(buf, sizeof(buf), "%s,%d,%s,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.4f\n", name.c_str(),
+                      d.tag_id, ToString(d.object_class), d.corners_px[0].x(), d.corners_px[0].y(),
+                      d.corners_px[1].x(), d.corners_px[1].y(), d.corners_px[2].x(), d.corners_px[2].y(),
+                      d.corners_px[3].x(), d.corners_px[3].y(), d.score);
+        csv << buf;
+      }
+      const std::string png = args.out + "/" + std::filesystem::path(path).stem().string() + "_detect.png";
+      if (!cv::imwrite(png, frontend::DrawDetections(gray, dets)))
+        throw InputError(png, 0, "cannot write the drawn image");
+    }
+  }
+  if (csv.is_open() && !csv.flush()) throw InputError(args.out + "/detections.csv", 0, "write failed");
+}
+
+}  // namespace
+
+void AddDetectCommand(CLI::App& root) {
+  auto args = std::make_shared<DetectArgs>();
+  auto* sub = root.add_subcommand(
+      "detect",
+      "Detect rectangles (or AprilTags) in images: corners in s1..s4 order (bottom-left, bottom-right,\n"
+      "top-right, top-left), DIR/detections.csv in distorted image pixels and a drawn PNG per image");
+  sub->add_option("images", args->images, "8-bit images (PNG, JPEG, ...)")->required();
+  sub->add_option("--frontend", args->frontend, "rect (plain rectangles) or apriltag")
+      ->check(CLI::IsMember({"rect", "apriltag"}));
+  sub->add_option("--family", args->family, "AprilTag family (with --frontend apriltag)");
+  sub->add_option("--calib", args->calib,
+                  "camera calibration (EuRoC sensor.yaml, Kalibr camchain, fsp calib.yaml): sides are fitted\n"
+                  "as straight lines after undistortion");
+  sub->add_option("--out", args->out, "output folder for detections.csv and the drawn PNGs");
+  sub->callback([args] { RunDetect(*args); });
+}
+
+}  // namespace fsp::apps

@@ -1,0 +1,158 @@
+// Rectangle detector: finds the images of 3-D rectangles (doors, windows, cabinets, posters, boards)
+// with sub-pixel corners.
+//
+// Pipeline (each stage is timed, see RectDetector::Result::times):
+//  1. "edges":    Sobel gradients and Canny edges; the hysteresis thresholds come from the image's own
+//                 gradient statistics (a noise estimate from the median gradient magnitude), not from
+//                 fixed grey-level values.
+//  2. "segments": Canny pixels linked into 8-connected chains, chains split into straight pieces
+//                 (recursive split at the farthest pixel), each piece fitted by least squares;
+//                 endpoints undistorted when a calibration is given; collinear pieces merged.
+//                 (cv::ximgproc::FastLineDetector does the same but took ~20 ms per 640x480 frame.)
+//  3. "group":    quadrilateral hypotheses: 4 segments joined at L-junctions (intersection close to an
+//                 endpoint of both) that close into a convex quadrilateral.
+//  4. "refine":   per side, sub-pixel edge points found along the side's normal (1-D gradient peak in the
+//                 DISTORTED image, then undistorted), a RANSAC line fit and a gradient-weighted total
+//                 least-squares refit on the inliers; corners = intersections of adjacent sides.
+//  5. "verify":   rectangle test with K (Zhang-He: the 3-D edges of a true rectangle are perpendicular),
+//                 edge support score, class guess.
+//  6. "nms":      duplicates (same corners within a tolerance) keep the best score; nesting rule below.
+//
+// Nesting rule (a window frame and its pane, a thick door frame's two outlines): when quad B lies inside
+// quad A and every corner of B is within `nest_corner_frac` x (A's shortest side) of A's matching corner,
+// B is the inner outline of the same object and is dropped: the OUTER outline is reported (the object's
+// full extent). Rectangles inside others that are not concentric in that sense (a poster on a door, the
+// tags on a calibration board, windows on a facade) are kept as objects of their own.
+//
+// Pixel thresholds are either relative (a fraction of a segment's length or of the image diagonal) or
+// tied to the edge profile (fractions of a pixel); none is tuned to one camera.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "fsp/common/camera.h"
+#include "fsp/frontend/detection.h"
+
+namespace fsp::frontend {
+
+// Options of RectDetector (see the class comment).
+struct RectDetectorOptions {
+  // --- 1. edges ---
+  // High Canny threshold as a multiple of the gradient noise level, estimated as the median Sobel
+  // magnitude / 1.177 (the Rayleigh median for pure noise). Lower finds fainter edges but more clutter.
+  double canny_noise_multiple = 5.0;
+  // Floor of the high threshold as a grey-level step [grey levels, 8-bit]: edges weaker than this step
+  // are never seeds even in a perfectly clean image. Lower finds low-contrast objects and more clutter.
+  double min_edge_contrast = 8.0;
+  // Low (hysteresis) threshold as a fraction of the high one. Lower links edges across weak parts.
+  double canny_low_ratio = 0.4;
+
+  // --- 2. segments ---
+  // Shortest segment kept [fraction of the image diagonal]. Longer ignores small clutter and small
+  // rectangles; shorter costs time in grouping.
+  double min_segment_frac = 0.02;
+  // Largest distance of an edge pixel from the chord of its piece before the chain is split [px].
+  double segment_fit_px = 1.414;
+  // Collinear merge of pieces with the same polarity (bright side on the same side): max angle [deg]
+  // and max endpoint-to-line distance [px] between two pieces, and max gap between them [fraction of
+  // the image diagonal]. A larger gap merges pieces broken by crossings or occlusion but also joins
+  // the collinear edges of neighbouring objects (a row of windows).
+  double merge_angle_deg = 3.0;
+  double merge_line_px = 2.0;
+  double merge_gap_frac = 0.02;
+
+  // --- 3. grouping ---
+  // Shortest side of a rectangle [fraction of the image diagonal]; 0.04 is ~32 px at 640x480.
+  double min_side_frac = 0.04;
+  // Smallest / largest image angle between adjacent sides [deg]. Perspective bends 90 deg a lot.
+  double min_corner_angle_deg = 25.0;
+  // A junction of two segments: their intersection may lie beyond a segment's end (the side's edge
+  // fades or is occluded near the corner) by up to this fraction of the segment's length...
+  double junction_gap_frac = 0.25;
+  // ...or inside the segment (the segment runs past the corner) by this fraction. Small on purpose:
+  // crossing lines (grids, frames that run on) are not corners, or every cell of a grid would be a
+  // rectangle.
+  double junction_overshoot_frac = 0.08;
+  // Absolute slack of both junction tests [px]: segments stop a pixel or two short of real corners.
+  double junction_slack_px = 3.0;
+  // Cap on hypotheses per image (bounds the time on heavy clutter).
+  int max_hypotheses = 3000;
+
+  // --- 4. refinement ---
+  // Half-length of the 1-D edge search along a side's normal [px]. Must cover the segment's error
+  // (about one pixel) but stay below the distance to neighbouring parallel edges.
+  double search_px = 2.5;
+  // Sample spacing along the normal [px] (bilinear interpolation).
+  double search_step_px = 0.5;
+  // Edge samples per side (fewer: faster, noisier lines).
+  int samples_per_side = 32;
+  // Part of each side next to its corners that is not sampled [fraction of the side], where the other
+  // side's edge and corner rounding disturb the profile.
+  double corner_margin_frac = 0.08;
+  // RANSAC inlier distance [px] and number of two-point draws per side.
+  double ransac_inlier_px = 0.75;
+  int ransac_iterations = 24;
+  // Seed of the RANSAC generator (results are deterministic for a given seed).
+  uint32_t seed = 1;
+  // Least fraction of a side's samples that must be inliers of its line (edge support). Higher rejects
+  // partly occluded rectangles.
+  double min_side_support = 0.5;
+
+  // --- 5. verification ---
+  // Largest |cos| of the 3-D angle between adjacent sides (Zhang-He); 0.2 is 90 +- 11.5 deg. Smaller
+  // rejects more non-rectangles but also true rectangles with noisy corners or a wrong K.
+  double max_abs_cos = 0.2;
+  // Largest metric aspect ratio (long side / short side) accepted.
+  double max_aspect = 8.0;
+  // Horizontal field of view [deg] assumed for K when no calibration is given.
+  double assumed_hfov_deg = 60.0;
+  // Guess classes (door, window, poster, cabinet) from shape, brightness and texture.
+  bool guess_class = true;
+
+  // --- 6. suppression ---
+  // Duplicates: largest corner distance [fraction of the shorter shortest side, min 2 px].
+  double duplicate_corner_frac = 0.1;
+  // Nesting (see above): corner distance [fraction of the outer quad's shortest side].
+  double nest_corner_frac = 0.25;
+  // At most this many detections, best score first (0: no limit).
+  int max_detections = 0;
+
+  bool Check(std::string* why) const;
+};
+
+class RectDetector {
+ public:
+  using Options = RectDetectorOptions;
+
+  // Diagnostics of one call.
+  struct Result {
+    std::vector<Detection> detections;  // best score first
+    StageTimes times;                   // edges, segments, group, refine, verify, nms
+    int segments = 0;                   // after merging
+    std::vector<std::pair<Vec2, Vec2>> segment_ends;  // merged segments (undistorted px), for debugging
+    int hypotheses = 0;                 // quads from grouping
+    int refined = 0;                    // quads that survived refinement
+    double canny_low = 0.0, canny_high = 0.0;  // thresholds used (Sobel magnitude units)
+  };
+
+  explicit RectDetector(Options options = Options());
+
+  // Detects rectangles in an 8-bit grey image (CV_8UC1; FSP_CHECKed). `camera` (optional) gives K and the
+  // distortion: edge points are undistorted so sides are straight lines; its size must match the image.
+  // `gravity_C` (optional) is the gravity direction in the camera frame (any length) used to order the
+  // corners (bottom = along gravity); without it the image's +v is down.
+  Result Detect(const cv::Mat& gray, const PinholeRadtan* camera = nullptr,
+                const Vec3* gravity_C = nullptr) const;
+
+  const Options& options() const { return options_; }
+
+ private:
+  Options options_;
+};
+
+}  // namespace fsp::frontend

@@ -1,0 +1,708 @@
+#include "fsp/frontend/rect_detector.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+#include <opencv2/imgproc.hpp>
+
+#include "fsp/common/error.h"
+#include "fsp/frontend/rect_geometry.h"
+
+namespace fsp::frontend {
+
+bool RectDetectorOptions::Check(std::string* why) const {
+  std::ostringstream os;
+  auto positive = [&](double v, const char* name) {
+    if (!(v > 0.0) || !std::isfinite(v)) os << name << " must be positive (got " << v << "); ";
+  };
+  positive(canny_noise_multiple, "canny_noise_multiple");
+  positive(min_edge_contrast, "min_edge_contrast");
+  if (!(canny_low_ratio > 0.0 && canny_low_ratio <= 1.0)) os << "canny_low_ratio must be in (0, 1]; ";
+  positive(min_segment_frac, "min_segment_frac");
+  positive(segment_fit_px, "segment_fit_px");
+  positive(merge_angle_deg, "merge_angle_deg");
+  positive(merge_line_px, "merge_line_px");
+  if (merge_gap_frac < 0.0) os << "merge_gap_frac must be >= 0; ";
+  positive(min_side_frac, "min_side_frac");
+  if (!(min_corner_angle_deg > 0.0 && min_corner_angle_deg < 90.0)) os << "min_corner_angle_deg must be in (0, 90); ";
+  if (junction_gap_frac < 0.0 || junction_overshoot_frac < 0.0 || junction_slack_px < 0.0)
+    os << "junction tolerances must be >= 0; ";
+  if (max_hypotheses < 1) os << "max_hypotheses must be >= 1; ";
+  positive(search_px, "search_px");
+  if (!(search_step_px > 0.0 && search_step_px <= search_px)) os << "search_step_px must be in (0, search_px]; ";
+  if (samples_per_side < 4) os << "samples_per_side must be >= 4; ";
+  if (!(corner_margin_frac >= 0.0 && corner_margin_frac < 0.4)) os << "corner_margin_frac must be in [0, 0.4); ";
+  positive(ransac_inlier_px, "ransac_inlier_px");
+  if (ransac_iterations < 1) os << "ransac_iterations must be >= 1; ";
+  if (!(min_side_support >= 0.0 && min_side_support <= 1.0)) os << "min_side_support must be in [0, 1]; ";
+  if (!(max_abs_cos > 0.0 && max_abs_cos <= 1.0)) os << "max_abs_cos must be in (0, 1]; ";
+  if (!(max_aspect >= 1.0)) os << "max_aspect must be >= 1; ";
+  if (!(assumed_hfov_deg > 1.0 && assumed_hfov_deg < 179.0)) os << "assumed_hfov_deg must be in (1, 179); ";
+  if (duplicate_corner_frac < 0.0 || nest_corner_frac < 0.0) os << "suppression fractions must be >= 0; ";
+  if (max_detections < 0) os << "max_detections must be >= 0; ";
+  if (why) *why = os.str();
+  return os.str().empty();
+}
+
+RectDetector::RectDetector(Options options) : options_(std::move(options)) {
+  std::string why;
+  FSP_CHECK(options_.Check(&why));
+}
+
+namespace {
+
+// A segment in undistorted pixels.
+struct Seg {
+  Vec2 a, b;
+  Vec2 dir;  // unit, a → b
+  double len = 0.0;
+};
+
+Seg MakeSeg(const Vec2& a, const Vec2& b) {
+  Seg s;
+  s.a = a;
+  s.b = b;
+  s.len = (b - a).norm();
+  s.dir = s.len > 0 ? Vec2((b - a) / s.len) : Vec2(1.0, 0.0);
+  return s;
+}
+
+// Line n·x = c with unit normal n.
+struct Line {
+  Vec2 n = Vec2(0.0, 1.0);
+  double c = 0.0;
+  double Dist(const Vec2& p) const { return n.dot(p) - c; }
+};
+
+Line LineOf(const Seg& s) {
+  Line l;
+  l.n = Vec2(-s.dir.y(), s.dir.x());
+  l.c = l.n.dot(s.a);
+  return l;
+}
+
+bool Intersect(const Line& l1, const Line& l2, Vec2* x) {
+  // [n1ᵀ; n2ᵀ] x = [c1; c2]
+  const double det = l1.n.x() * l2.n.y() - l1.n.y() * l2.n.x();
+  if (std::abs(det) < 1e-9) return false;
+  *x = Vec2((l1.c * l2.n.y() - l1.n.y() * l2.c) / det, (l1.n.x() * l2.c - l1.c * l2.n.x()) / det);
+  return true;
+}
+
+// Weighted total least squares line: the normal is the eigenvector of the smallest eigenvalue of the
+// weighted scatter matrix about the weighted centroid.
+bool FitLineTls(const std::vector<Vec2>& pts, const std::vector<double>& w, const std::vector<int>& idx,
+                Line* line) {
+  if (idx.size() < 2) return false;
+  double sw = 0.0;
+  Vec2 mu = Vec2::Zero();
+  for (int i : idx) {
+    sw += w[i];
+    mu += w[i] * pts[i];
+  }
+  if (!(sw > 0.0)) return false;
+  mu /= sw;
+  Mat2 S = Mat2::Zero();
+  for (int i : idx) {
+    const Vec2 d = pts[i] - mu;
+    S += w[i] * d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Mat2> es(S);
+  line->n = es.eigenvectors().col(0).normalized();
+  line->c = line->n.dot(mu);
+  return true;
+}
+
+// Bilinear interpolation of an 8-bit image; false outside [0, W-1] x [0, H-1].
+inline bool Bilinear(const cv::Mat& img, double x, double y, double* v) {
+  if (!(x >= 0.0 && y >= 0.0 && x < img.cols - 1 && y < img.rows - 1)) return false;
+  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+  const double fx = x - x0, fy = y - y0;
+  const uint8_t* r0 = img.ptr<uint8_t>(y0) + x0;
+  const uint8_t* r1 = img.ptr<uint8_t>(y0 + 1) + x0;
+  *v = (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
+  return true;
+}
+
+// Canny thresholds from the gradient statistics. The median Sobel magnitude over (a subsample of) the
+// image is dominated by flat regions, where the magnitude of Gaussian noise is Rayleigh-distributed:
+// median = 1.177 σ_r. High threshold = max(multiple · σ_r, 4 · min_contrast) (Sobel's response to a sharp
+// step of C grey levels is 4C); low = ratio · high.
+void CannyThresholds(const cv::Mat& dx, const cv::Mat& dy, const RectDetectorOptions& o, double* low,
+                     double* high) {
+  constexpr int kBins = 2048;
+  std::array<int, kBins> hist{};
+  int n = 0;
+  for (int y = 1; y < dx.rows - 1; y += 2) {
+    const int16_t* px = dx.ptr<int16_t>(y);
+    const int16_t* py = dy.ptr<int16_t>(y);
+    for (int x = 1; x < dx.cols - 1; x += 2) {
+      const double m = std::sqrt(double(px[x]) * px[x] + double(py[x]) * py[x]);
+      ++hist[std::min(kBins - 1, static_cast<int>(m))];
+      ++n;
+    }
+  }
+  int acc = 0, median = 0;
+  for (int b = 0; b < kBins; ++b) {
+    acc += hist[b];
+    if (2 * acc >= n) {
+      median = b;
+      break;
+    }
+  }
+  const double sigma_r = (median + 0.5) / 1.177;
+  *high = std::max(o.canny_noise_multiple * sigma_r, 4.0 * o.min_edge_contrast);
+  *low = o.canny_low_ratio * *high;
+}
+
+// Merges collinear pieces (union of compatible pairs, then one TLS line through all endpoints).
+std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, double line_px, double gap_px) {
+  const int n = static_cast<int>(in.size());
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  std::vector<double> theta(n);
+  for (int i = 0; i < n; ++i) theta[i] = std::atan2(in[i].dir.y(), in[i].dir.x()) + M_PI;  // [0, 2π]
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int i, int j) { return theta[i] < theta[j]; });
+  const double tol = angle_deg * M_PI / 180.0;
+  auto compatible = [&](const Seg& s, const Seg& t) {
+    if (s.dir.dot(t.dir) < std::cos(tol)) return false;  // same polarity only (see orientation above)
+    const Seg& lng = s.len >= t.len ? s : t;
+    const Seg& sht = s.len >= t.len ? t : s;
+    const Line l = LineOf(lng);
+    if (std::abs(l.Dist(sht.a)) > line_px || std::abs(l.Dist(sht.b)) > line_px) return false;
+    // Gap between the two intervals along the long segment's direction.
+    const double ta = (sht.a - lng.a).dot(lng.dir), tb = (sht.b - lng.a).dot(lng.dir);
+    const double lo = std::min(ta, tb), hi = std::max(ta, tb);
+    const double gap = std::max(lo - lng.len, -hi);
+    return gap <= gap_px;
+  };
+  for (int oi = 0; oi < n; ++oi) {
+    const int i = order[oi];
+    // Neighbours in angle (with wrap-around at π).
+    for (int k = 1; k < n; ++k) {
+      const int j = order[(oi + k) % n];
+      double d = theta[j] - theta[i];
+      if (d < 0) d += 2 * M_PI;
+      if (d > tol) break;
+      if (compatible(in[i], in[j])) parent[find(i)] = find(j);
+    }
+  }
+  std::vector<std::vector<int>> groups(n);
+  for (int i = 0; i < n; ++i) groups[find(i)].push_back(i);
+  std::vector<Seg> out;
+  for (const auto& g : groups) {
+    if (g.empty()) continue;
+    if (g.size() == 1) {
+      out.push_back(in[g[0]]);
+      continue;
+    }
+    std::vector<Vec2> pts;
+    std::vector<double> w;
+    std::vector<int> idx;
+    for (int i : g) {
+      idx.push_back(static_cast<int>(pts.size()));
+      pts.push_back(in[i].a);
+      idx.push_back(static_cast<int>(pts.size()));
+      pts.push_back(in[i].b);
+      w.push_back(in[i].len);
+      w.push_back(in[i].len);
+    }
+    Line l;
+    if (!FitLineTls(pts, w, idx, &l)) continue;
+    Vec2 dir(l.n.y(), -l.n.x());
+    if (dir.dot(in[g[0]].dir) < 0.0) dir = -dir;  // keep the polarity orientation
+    const Vec2 p0 = l.c * l.n;
+    double lo = 1e300, hi = -1e300;
+    for (const auto& p : pts) {
+      const double t = (p - p0).dot(dir);
+      lo = std::min(lo, t);
+      hi = std::max(hi, t);
+    }
+    out.push_back(MakeSeg(p0 + lo * dir, p0 + hi * dir));
+  }
+  return out;
+}
+
+// Edge linking: traces 8-connected chains of Canny pixels (consumes `edges`). At each step the
+// unvisited neighbour that best continues the current direction is taken; branches become chains of
+// their own. Each chain is traced from its seed in both directions.
+std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
+  static const int kDx[8] = {1, 1, 0, -1, -1, -1, 0, 1};
+  static const int kDy[8] = {0, 1, 1, 1, 0, -1, -1, -1};
+  std::vector<std::vector<cv::Point>> chains;
+  const int W = edges.cols, H = edges.rows;
+  // Border pixels are cleared so neighbour lookups stay inside the image.
+  edges.row(0).setTo(0);
+  edges.row(H - 1).setTo(0);
+  edges.col(0).setTo(0);
+  edges.col(W - 1).setTo(0);
+  auto walk = [&](cv::Point p, int dir, std::vector<cv::Point>* out) {
+    for (;;) {
+      int best = -1, best_score = -10;
+      for (int k = 0; k < 8; ++k) {
+        if (!edges.at<uint8_t>(p.y + kDy[k], p.x + kDx[k])) continue;
+        // Alignment with the previous step direction: 8 minus the angular distance in 45 deg units.
+        const int diff = dir < 0 ? 0 : std::min((k - dir + 8) % 8, (dir - k + 8) % 8);
+        const int score = 8 - diff;
+        if (score > best_score) {
+          best_score = score;
+          best = k;
+        }
+      }
+      if (best < 0 || (dir >= 0 && best_score < 6)) return;  // stop at turns sharper than 90 deg
+      p = cv::Point(p.x + kDx[best], p.y + kDy[best]);
+      edges.at<uint8_t>(p) = 0;
+      out->push_back(p);
+      dir = best;
+    }
+  };
+  std::vector<cv::Point> fwd, bwd;
+  for (int y = 1; y < H - 1; ++y) {
+    const uint8_t* row = edges.ptr<uint8_t>(y);
+    for (int x = 1; x < W - 1; ++x) {
+      if (!row[x]) continue;
+      const cv::Point seed(x, y);
+      edges.at<uint8_t>(seed) = 0;
+      fwd.clear();
+      bwd.clear();
+      walk(seed, -1, &fwd);
+      if (!fwd.empty()) {
+        // Walk the other way, starting opposite to the first step.
+        const cv::Point d = fwd[0] - seed;
+        int back = -1;
+        for (int k = 0; k < 8; ++k)
+          if (kDx[k] == -d.x && kDy[k] == -d.y) back = k;
+        walk(seed, back, &bwd);
+      }
+      if (static_cast<int>(fwd.size() + bwd.size()) + 1 < min_len) continue;
+      std::vector<cv::Point> chain(bwd.rbegin(), bwd.rend());
+      chain.push_back(seed);
+      chain.insert(chain.end(), fwd.begin(), fwd.end());
+      chains.push_back(std::move(chain));
+    }
+  }
+  return chains;
+}
+
+// Splits a pixel chain into straight pieces (recursive split at the farthest point from the chord
+// while it is farther than tol_px) and fits each piece of at least min_len pixels by total least squares.
+void SplitChain(const std::vector<cv::Point>& c, int i0, int i1, double tol_px, int min_len,
+                std::vector<std::pair<Vec2, Vec2>>* out) {
+  if (i1 - i0 + 1 < min_len) return;
+  const Vec2 a(c[i0].x, c[i0].y), b(c[i1].x, c[i1].y);
+  const Vec2 d = b - a;
+  const double L = d.norm();
+  int worst = -1;
+  double worst_dist = 0.0;
+  if (L > 0) {
+    const Vec2 n(-d.y() / L, d.x() / L);
+    for (int i = i0 + 1; i < i1; ++i) {
+      const double dist = std::abs(n.dot(Vec2(c[i].x, c[i].y) - a));
+      if (dist > worst_dist) {
+        worst_dist = dist;
+        worst = i;
+      }
+    }
+  }
+  if (worst >= 0 && worst_dist > tol_px) {
+    SplitChain(c, i0, worst, tol_px, min_len, out);
+    SplitChain(c, worst, i1, tol_px, min_len, out);
+    return;
+  }
+  // Total least squares on the piece's pixels; endpoints = projections of the first and last pixel.
+  Vec2 mu = Vec2::Zero();
+  for (int i = i0; i <= i1; ++i) mu += Vec2(c[i].x, c[i].y);
+  mu /= (i1 - i0 + 1);
+  Mat2 S = Mat2::Zero();
+  for (int i = i0; i <= i1; ++i) {
+    const Vec2 e = Vec2(c[i].x, c[i].y) - mu;
+    S += e * e.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Mat2> es(S);
+  const Vec2 dir = es.eigenvectors().col(1);
+  out->emplace_back(mu + dir * dir.dot(a - mu), mu + dir * dir.dot(b - mu));
+}
+
+struct Junction {
+  int seg = -1;  // the other segment
+  int end = 0;   // the other segment's end at the junction (0 = a, 1 = b)
+  Vec2 x;        // intersection point
+};
+
+// Which end of s the point x (on s's line) is a corner for, or -1. Beyond the end by up to gap, inside
+// the segment by up to overshoot.
+int JunctionEnd(const Seg& s, const Vec2& x, const RectDetectorOptions& o) {
+  const double t = (x - s.a).dot(s.dir);
+  const double beyond = t < 0.5 * s.len ? -t : t - s.len;  // > 0: x lies past that end
+  const int end = t < 0.5 * s.len ? 0 : 1;
+  if (beyond >= 0.0) return beyond <= o.junction_gap_frac * s.len + o.junction_slack_px ? end : -1;
+  return -beyond <= o.junction_overshoot_frac * s.len + o.junction_slack_px ? end : -1;
+}
+
+struct Quad {
+  Corners c;               // undistorted px, grouping order (a∩b, b∩c, c∩d, d∩a)
+  double score = 0.0;
+  double abs_cos = 1.0;
+  double aspect_w_h = 1.0;  // metric width / height after canonical ordering
+  double area = 0.0;
+};
+
+// Sub-pixel refinement of one quad. Side i joins corners c[i-1] and c[i]; its edge points come from 1-D
+// gradient peaks along the side's normal in the (smoothed, distorted) image.
+bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetectorOptions& o,
+                double min_gradient, std::mt19937* rng, Quad* q) {
+  const bool distort = cam != nullptr && cam->HasDistortion();
+  std::array<Line, 4> lines;
+  double support_sum = 0.0;
+  const int m = static_cast<int>(std::lround(o.search_px / o.search_step_px));
+  std::vector<double> prof(2 * m + 1);
+  std::vector<Vec2> pts;
+  std::vector<double> w;
+  std::vector<int> sign;
+  for (int side = 0; side < 4; ++side) {
+    const Vec2 P = q->c[(side + 3) % 4], Q = q->c[side];
+    const double L = (Q - P).norm();
+    const Vec2 u = (Q - P) / L, n(-u.y(), u.x());
+    const double margin = std::max(o.corner_margin_frac * L, 1.0);
+    const int k_samples = std::max(4, std::min(o.samples_per_side, static_cast<int>(L - 2 * margin)));
+    pts.clear();
+    w.clear();
+    sign.clear();
+    int pos = 0, neg = 0;
+    for (int k = 0; k < k_samples; ++k) {
+      const double t = margin + (L - 2 * margin) * (k + 0.5) / k_samples;
+      const Vec2 p = P + t * u;
+      Vec2 qd = p, nd = n;
+      if (distort) {
+        qd = cam->DistortPixel(p);
+        nd = (cam->DistortPixel(p + n) - qd).normalized();
+      }
+      bool ok = true;
+      for (int i = -m; i <= m && ok; ++i) {
+        const Vec2 s = qd + (i * o.search_step_px) * nd;
+        ok = Bilinear(smooth, s.x(), s.y(), &prof[i + m]);
+      }
+      if (!ok) continue;
+      // Derivative by central differences over one pixel (2 steps of 0.5 px): grey levels per px.
+      int best = -1;
+      double best_abs = 0.0;
+      for (int i = 1; i < 2 * m; ++i) {
+        const double d = std::abs(prof[i + 1] - prof[i - 1]);
+        if (d > best_abs) {
+          best_abs = d;
+          best = i;
+        }
+      }
+      if (best <= 1 || best >= 2 * m - 1) continue;  // peak at the window's end: no edge inside
+      const double gradient = best_abs / (2.0 * o.search_step_px);
+      if (gradient < min_gradient) continue;
+      const double dm = std::abs(prof[best] - prof[best - 2]);
+      const double dp = std::abs(prof[best + 2] - prof[best]);
+      const double den = dm - 2.0 * best_abs + dp;
+      const double delta = den < 0.0 ? 0.5 * (dm - dp) / den : 0.0;  // parabola vertex, in steps
+      const double s_star = (best - m + std::clamp(delta, -0.5, 0.5)) * o.search_step_px;
+      Vec2 e = qd + s_star * nd;
+      if (distort) e = cam->UndistortPixel(e);
+      const int sg = prof[best + 1] > prof[best - 1] ? 1 : -1;
+      (sg > 0 ? pos : neg)++;
+      pts.push_back(e);
+      w.push_back(gradient);
+      sign.push_back(sg);
+    }
+    // Keep the majority polarity: a side's edge has one polarity; the other is a neighbouring edge.
+    const int keep = pos >= neg ? 1 : -1;
+    {
+      size_t j = 0;
+      for (size_t i = 0; i < pts.size(); ++i)
+        if (sign[i] == keep) {
+          pts[j] = pts[i];
+          w[j] = w[i];
+          ++j;
+        }
+      pts.resize(j);
+      w.resize(j);
+    }
+    const int need = static_cast<int>(std::ceil(o.min_side_support * k_samples));
+    if (static_cast<int>(pts.size()) < std::max(need, 2)) return false;
+    // RANSAC: two-point lines, most inliers wins; then weighted TLS on the inliers, twice.
+    const int np = static_cast<int>(pts.size());
+    std::uniform_int_distribution<int> pick(0, np - 1);
+    int best_count = -1;
+    Line best_line;
+    for (int it = 0; it < o.ransac_iterations; ++it) {
+      const int i = pick(*rng);
+      int j = pick(*rng);
+      if (j == i) j = (i + 1) % np;
+      const Vec2 d = pts[j] - pts[i];
+      if (d.norm() < 1e-9) continue;
+      Line l;
+      l.n = Vec2(-d.y(), d.x()).normalized();
+      l.c = l.n.dot(pts[i]);
+      int count = 0;
+      for (int k = 0; k < np; ++k) count += std::abs(l.Dist(pts[k])) <= o.ransac_inlier_px;
+      if (count > best_count) {
+        best_count = count;
+        best_line = l;
+      }
+    }
+    Line l = best_line;
+    std::vector<int> inl;
+    for (int pass = 0; pass < 2; ++pass) {
+      inl.clear();
+      for (int k = 0; k < np; ++k)
+        if (std::abs(l.Dist(pts[k])) <= o.ransac_inlier_px) inl.push_back(k);
+      if (static_cast<int>(inl.size()) < 2 || !FitLineTls(pts, w, inl, &l)) return false;
+    }
+    inl.clear();
+    for (int k = 0; k < np; ++k)
+      if (std::abs(l.Dist(pts[k])) <= o.ransac_inlier_px) inl.push_back(k);
+    const double support = static_cast<double>(inl.size()) / k_samples;
+    if (support < o.min_side_support) return false;
+    support_sum += support;
+    lines[side] = l;
+  }
+  Corners c;
+  for (int i = 0; i < 4; ++i)
+    if (!Intersect(lines[i], lines[(i + 1) % 4], &c[i])) return false;
+  // Corner i is the intersection of side i (ending at corner i) and side i+1 (starting there).
+  const double tol = 0.2 * ShortestSide(q->c) + 2.0 * o.search_px;
+  for (int i = 0; i < 4; ++i)
+    if ((c[i] - q->c[i]).norm() > tol) return false;
+  if (!IsConvex(c)) return false;
+  q->c = c;
+  q->score = support_sum / 4.0;
+  return true;
+}
+
+// Mean and standard deviation of the grey values on an n x n grid of the quad's interior (bilinear map
+// of the unit square, shrunk by `shrink` towards the centre) or of a ring just outside it (scale > 1).
+void QuadStats(const cv::Mat& img, const Corners& px, double scale, double* mean, double* stddev) {
+  const Vec2 centre = 0.25 * (px[0] + px[1] + px[2] + px[3]);
+  double s = 0.0, s2 = 0.0;
+  int n = 0;
+  const int g = 8;
+  for (int i = 0; i < g; ++i)
+    for (int j = 0; j < g; ++j) {
+      if (scale > 1.0 && i > 0 && i < g - 1 && j > 0 && j < g - 1) continue;  // ring: border cells only
+      const double a = (i + 0.5) / g, b = (j + 0.5) / g;
+      const Vec2 p = (1 - a) * (1 - b) * px[0] + a * (1 - b) * px[1] + a * b * px[2] + (1 - a) * b * px[3];
+      const Vec2 ps = centre + scale * (p - centre);
+      double v;
+      if (!Bilinear(img, ps.x(), ps.y(), &v)) continue;
+      s += v;
+      s2 += v * v;
+      ++n;
+    }
+  if (n == 0) {
+    *mean = *stddev = -1.0;
+    return;
+  }
+  *mean = s / n;
+  *stddev = std::sqrt(std::max(0.0, s2 / n - *mean * *mean));
+}
+
+}  // namespace
+
+RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadtan* camera,
+                                          const Vec3* gravity_C) const {
+  FSP_CHECK(gray.type() == CV_8UC1 && !gray.empty());
+  if (camera) FSP_CHECK(camera->width == gray.cols && camera->height == gray.rows);
+  const Options& o = options_;
+  Result res;
+  Stopwatch sw;
+  const double diag = std::hypot(gray.cols, gray.rows);
+  const Mat3 K = camera ? camera->K() : DefaultK(gray.cols, gray.rows, o.assumed_hfov_deg);
+  const PinholeRadtan* cam = camera && camera->HasDistortion() ? camera : nullptr;
+
+  // 1. edges: light smoothing (σ = 1 px) against pixel noise, Sobel, Canny with data-driven thresholds.
+  cv::Mat smooth, dx, dy, edges;
+  cv::GaussianBlur(gray, smooth, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
+  cv::Sobel(smooth, dx, CV_16S, 1, 0, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
+  cv::Sobel(smooth, dy, CV_16S, 0, 1, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
+  CannyThresholds(dx, dy, o, &res.canny_low, &res.canny_high);
+  cv::Canny(dx, dy, edges, res.canny_low, res.canny_high, true);
+  res.times.Add("edges", sw.Lap());
+
+  // 2. segments: edge chains split into straight pieces, each fitted by least squares.
+  const int min_seg = std::max(4, static_cast<int>(std::lround(o.min_segment_frac * diag)));
+  std::vector<std::pair<Vec2, Vec2>> raw;
+  for (const auto& chain : TraceChains(edges, min_seg))
+    SplitChain(chain, 0, static_cast<int>(chain.size()) - 1, o.segment_fit_px, min_seg, &raw);
+  std::vector<Seg> segs;
+  segs.reserve(raw.size());
+  for (const auto& r : raw) {
+    Vec2 a = r.first, b = r.second;
+    // Orient by polarity: brighter side on the left of a → b (image x right, y down: left normal is
+    // (dy, -dx) for direction (dx, dy)), from the Sobel gradient at five points along the segment.
+    {
+      const Vec2 d = b - a;
+      const Vec2 left(d.y(), -d.x());
+      double sum = 0.0;
+      for (int k = 1; k <= 5; ++k) {
+        const Vec2 p = a + (k / 6.0) * d;
+        const int x = std::clamp(static_cast<int>(std::lround(p.x())), 0, dx.cols - 1);
+        const int y = std::clamp(static_cast<int>(std::lround(p.y())), 0, dx.rows - 1);
+        sum += left.x() * dx.at<int16_t>(y, x) + left.y() * dy.at<int16_t>(y, x);
+      }
+      if (sum < 0.0) std::swap(a, b);
+    }
+    if (cam) {
+      a = cam->UndistortPixel(a);
+      b = cam->UndistortPixel(b);
+    }
+    segs.push_back(MakeSeg(a, b));
+  }
+  segs = MergeCollinear(segs, o.merge_angle_deg, o.merge_line_px, o.merge_gap_frac * diag);
+  res.segments = static_cast<int>(segs.size());
+  for (const Seg& sg : segs) res.segment_ends.emplace_back(sg.a, sg.b);
+  res.times.Add("segments", sw.Lap());
+
+  // 3. grouping: junctions at segment ends, then 4-cycles a → b → c → d → a.
+  const int ns = static_cast<int>(segs.size());
+  std::vector<std::array<std::vector<Junction>, 2>> ends(ns);
+  std::vector<Line> seg_lines(ns);
+  for (int i = 0; i < ns; ++i) seg_lines[i] = LineOf(segs[i]);
+  const double min_sin = std::sin(o.min_corner_angle_deg * M_PI / 180.0);
+  for (int i = 0; i < ns; ++i)
+    for (int j = i + 1; j < ns; ++j) {
+      const double s = std::abs(segs[i].dir.x() * segs[j].dir.y() - segs[i].dir.y() * segs[j].dir.x());
+      if (s < min_sin) continue;
+      // Cheap rejection: the nearest endpoints must be within reach of both junction tolerances.
+      const double reach = (o.junction_gap_frac + o.junction_overshoot_frac) * (segs[i].len + segs[j].len) +
+                           2.0 * o.junction_slack_px;
+      const double dmin = std::min({(segs[i].a - segs[j].a).norm(), (segs[i].a - segs[j].b).norm(),
+                                    (segs[i].b - segs[j].a).norm(), (segs[i].b - segs[j].b).norm()});
+      if (dmin > reach) continue;
+      Vec2 x;
+      if (!Intersect(seg_lines[i], seg_lines[j], &x)) continue;
+      const int ei = JunctionEnd(segs[i], x, o);
+      if (ei < 0) continue;
+      const int ej = JunctionEnd(segs[j], x, o);
+      if (ej < 0) continue;
+      ends[i][ei].push_back({j, ej, x});
+      ends[j][ej].push_back({i, ei, x});
+    }
+  const double min_side = o.min_side_frac * diag;
+  std::vector<Quad> quads;
+  for (int a = 0; a < ns && static_cast<int>(quads.size()) < o.max_hypotheses; ++a)
+    for (const Junction& jb : ends[a][1]) {
+      const int b = jb.seg;
+      if (b <= a) continue;
+      for (const Junction& jc : ends[b][1 - jb.end]) {
+        const int c = jc.seg;
+        if (c <= a || c == b) continue;
+        for (const Junction& jd : ends[c][1 - jc.end]) {
+          const int d = jd.seg;
+          if (d <= a || d == b || d == c) continue;
+          for (const Junction& ja : ends[d][1 - jd.end]) {
+            if (ja.seg != a || ja.end != 0) continue;
+            Quad q;
+            q.c = {jb.x, jc.x, jd.x, ja.x};
+            if (!IsConvex(q.c) || ShortestSide(q.c) < min_side) continue;
+            quads.push_back(q);
+          }
+        }
+      }
+    }
+  res.hypotheses = static_cast<int>(quads.size());
+  res.times.Add("group", sw.Lap());
+
+  // 4. refinement (with a cheap rectangle pre-test at twice the tolerance on the hypothesis corners).
+  std::mt19937 rng(o.seed);
+  const double min_gradient = res.canny_low / 8.0;  // Sobel magnitude ≈ 8 x (grey levels per px)
+  std::vector<Quad> refined;
+  for (Quad& q : quads) {
+    const RectangleTest pre = ZhangHeTest(q.c, K);
+    if (!pre.valid || pre.abs_cos > std::min(1.0, 2.0 * o.max_abs_cos)) continue;
+    if (RefineQuad(smooth, cam, o, min_gradient, &rng, &q)) refined.push_back(q);
+  }
+  res.refined = static_cast<int>(refined.size());
+  res.times.Add("refine", sw.Lap());
+
+  // 5. verification on the refined corners, canonical order.
+  std::vector<Quad> good;
+  for (Quad& q : refined) {
+    if (ShortestSide(q.c) < min_side) continue;
+    q.c = CanonicalOrder(q.c, &K, gravity_C);
+    const RectangleTest t = ZhangHeTest(q.c, K);
+    if (!t.valid || t.abs_cos > o.max_abs_cos) continue;
+    q.aspect_w_h = t.aspect_12_14;
+    if (q.aspect_w_h > o.max_aspect || q.aspect_w_h < 1.0 / o.max_aspect) continue;
+    q.abs_cos = t.abs_cos;
+    q.score *= 1.0 - 0.5 * t.abs_cos / o.max_abs_cos;
+    q.area = std::abs(SignedArea(q.c));
+    good.push_back(q);
+  }
+  res.times.Add("verify", sw.Lap());
+
+  // 6. suppression: duplicates keep the best score, concentric nesting keeps the outer outline.
+  std::stable_sort(good.begin(), good.end(), [](const Quad& x, const Quad& y) { return x.score > y.score; });
+  std::vector<Quad> kept;
+  for (const Quad& q : good) {
+    bool drop = false;
+    for (Quad& k : kept) {
+      const double d = CornerDistanceBestShift(q.c, k.c);
+      const double small_side = std::min(ShortestSide(q.c), ShortestSide(k.c));
+      if (d <= std::max(2.0, o.duplicate_corner_frac * small_side)) {
+        drop = true;  // duplicate: the kept one scores at least as high
+        break;
+      }
+      const Quad& outer = q.area > k.area ? q : k;
+      const Quad& inner = q.area > k.area ? k : q;
+      bool inside = true;
+      for (const Vec2& p : inner.c) inside = inside && InsideConvex(outer.c, p);
+      if (inside && d <= o.nest_corner_frac * ShortestSide(outer.c)) {
+        if (&outer == &q) k = q;  // the new one is the outer outline: it replaces the kept inner one
+        drop = true;
+        break;
+      }
+    }
+    if (!drop) kept.push_back(q);
+  }
+  // Replacing may have created duplicates among kept ones; remove exact repeats.
+  std::vector<Quad> unique;
+  for (const Quad& q : kept) {
+    bool dup = false;
+    for (const Quad& u : unique) dup = dup || CornerDistanceBestShift(q.c, u.c) < 1e-9;
+    if (!dup) unique.push_back(q);
+  }
+  if (o.max_detections > 0 && static_cast<int>(unique.size()) > o.max_detections) unique.resize(o.max_detections);
+
+  for (const Quad& q : unique) {
+    Detection det;
+    det.corners_undistorted = q.c;
+    for (int i = 0; i < 4; ++i) det.corners_px[i] = cam ? cam->DistortPixel(q.c[i]) : q.c[i];
+    det.score = q.score;
+    if (o.guess_class) {
+      // Class cues (see README of the front end): metric aspect h/w from Zhang-He, brightness against the
+      // surroundings, interior texture. Statistics on the smoothed image at the distorted corners.
+      double in_mean, in_std, out_mean, out_std;
+      QuadStats(smooth, det.corners_px, 0.8, &in_mean, &in_std);
+      QuadStats(smooth, det.corners_px, 1.25, &out_mean, &out_std);
+      const double h_over_w = 1.0 / q.aspect_w_h;
+      if (h_over_w >= 1.7 && h_over_w <= 3.2 && in_std < 40.0) {
+        det.object_class = ObjectClass::kDoor;
+      } else if (out_mean >= 0.0 && in_mean - out_mean > 30.0 && h_over_w >= 0.5 && h_over_w <= 2.5) {
+        det.object_class = ObjectClass::kWindow;
+      } else if (in_std > 30.0 && h_over_w >= 0.5 && h_over_w <= 2.0) {
+        det.object_class = ObjectClass::kPoster;
+      }
+    }
+    res.detections.push_back(det);
+  }
+  res.times.Add("nms", sw.Lap());
+  return res;
+}
+
+}  // namespace fsp::frontend
