@@ -53,7 +53,8 @@ struct TexturedQuad {
 struct RenderOptions {
   int supersampling = 2;         // rays per pixel per axis (2 -> 4 rays). 1 is fastest, aliased.
   double ambient = 0.25;         // light model: ambient + (1 - ambient) * |cos(normal, ray)|
-  int motion_blur_samples = 1;   // >1: average this many poses over the exposure (Render with 2 poses)
+  int motion_blur_samples = 1;   // poses over the exposure (Render with 2 poses); more: smoother blur,
+                                 // cost N / gcd(supersampling^2, N) renders
   double background = 0.0;      // grey level in [0, 1] where a ray hits nothing
   double room_texels_per_m = 200.0;    // texture resolution of room surfaces (id < 0): memory ~ area * d^2
                                        // floats; 200/m is ~1 texel per pixel at 2 m with fx ~ 460
@@ -73,8 +74,11 @@ class Renderer {
   // 8-bit grey image (CV_8UC1, camera.height x camera.width), camera pose T_W_C. Distortion from the
   // camera model is applied. Deterministic; no noise (the caller adds pixel noise with its own seed).
   cv::Mat Render(const Rigid3& T_W_C) const;
-  // Motion blur: averages options.motion_blur_samples renders at poses interpolated between the two
-  // poses (shutter open, shutter close) at alpha = (k + 0.5) / N, k = 0..N-1 (N = 1: the midpoint).
+  // Motion blur over the exposure (shutter open, shutter close): N = options.motion_blur_samples poses
+  // at alpha = (k + 0.5) / N, k = 0..N-1 (N = 1: the midpoint). The poses share each pixel's rays
+  // (every pose gets the same number of the pixel's sub-pixel rays), so N poses cost N / gcd(S, N)
+  // renders with S = supersampling^2 rays per pixel: N = 4 at supersampling 2 costs one render. A still
+  // camera gives exactly Render(T_W_C).
   cv::Mat Render(const Rigid3& T_W_C_open, const Rigid3& T_W_C_close) const;
 
   // True when nothing hides p_W (a point on quad quad_id, e.g. a corner) from the camera centre: no quad
