@@ -80,7 +80,7 @@ void PrintHuman(const Source& src, const SourceSummary& s, const InfoArgs& args,
               NsToSeconds(s.imu_t_last_ns - s.imu_t_first_ns), s.imu_rate_hz);
   std::printf("             largest gap %.1f ms (ending at %lld ns); %d gaps longer than 5 periods\n",
               1e3 * NsToSeconds(s.largest_imu_gap_ns), static_cast<long long>(s.largest_imu_gap_at_ns), s.imu_gaps);
-  std::printf("camera       %dx%d, fx %.6g fy %.6g cx %.6g cy %.6g, distortion [%.8g, %.8g, %.8g, %.8g], %.6g Hz\n",
+  std::printf("camera       %dx%d, fx %.6g fy %.6g cx %.6g cy %.6g, distortion [%.10g, %.10g, %.10g, %.10g], %.6g Hz\n",
               k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.distortion[0], k.distortion[1], k.distortion[2],
               k.distortion[3], c.camera_rate_hz);
   const Mat4 M = c.T_B_C.Matrix();

@@ -1,6 +1,8 @@
 // Frames stored as image files: listed in a data.csv, or named by their timestamps.
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -107,14 +109,16 @@ FrameList ListImagesByName(const std::string& folder) {
   for (const fs::directory_entry& e : fs::directory_iterator(folder, ec)) {
     if (!e.is_regular_file(ec) || !IsImageExtension(e.path().extension().string())) continue;
     const std::string stem = e.path().stem().string();
-    const bool digits = !stem.empty() && stem.size() <= 19 &&
+    errno = 0;
+    const long long t = std::strtoll(stem.c_str(), nullptr, 10);
+    const bool digits = !stem.empty() && errno != ERANGE &&
                         std::all_of(stem.begin(), stem.end(), [](unsigned char c) { return std::isdigit(c); });
     if (!digits) {
       throw InputError(e.path().string(), 0,
                        "image file name is not a nanosecond timestamp: name images <t_ns>.png or list them in " +
                            (fs::path(folder) / "data.csv").string());
     }
-    entries.push_back({std::stoll(stem), e.path().string()});
+    entries.push_back({static_cast<int64_t>(t), e.path().string()});
   }
   if (ec) throw InputError(folder, 0, "cannot list folder: " + ec.message());
   if (entries.empty()) {

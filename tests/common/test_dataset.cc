@@ -104,6 +104,24 @@ TEST(Dataset, EurocMicroWithKalibrCalibration) {
   EXPECT_LT((src->calibration().T_B_C.Matrix() - EurocTBS()).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+// The micro dataset's cam0 folder as an image folder: by its data.csv, and its data/ folder by file names
+// (19-digit nanosecond timestamps).
+TEST(Dataset, EurocMicroAsImageFolder) {
+  FSP_REQUIRE_TEST_DATA(mav0, "euroc_v101_micro/mav0");
+  SourceOptions opts;
+  opts.calib = mav0 + "/cam0/sensor.yaml";
+  opts.imu = mav0 + "/imu0/data.csv";
+  opts.decode_images = false;
+  for (const std::string& input : {mav0 + "/cam0", mav0 + "/cam0/data"}) {
+    opts.input = input;
+    auto src = OpenSource(opts);
+    EXPECT_EQ(src->kind(), InputKind::kImageFolder);
+    ASSERT_EQ(src->frame_times().size(), 95u) << input;
+    EXPECT_EQ(src->frame_times()[1], 1403715273312143104LL) << input;
+    EXPECT_EQ(src->ReadFrame(1).source, mav0 + "/cam0/data/1403715273312143104.png") << input;
+  }
+}
+
 TEST(Dataset, InfoJsonOnEurocMicro) {
   FSP_REQUIRE_TEST_DATA(dir, "euroc_v101_micro");
   const auto r = test::RunFsp("info '" + dir + "' --json");
