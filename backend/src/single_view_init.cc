@@ -25,10 +25,11 @@ bool SingleViewInitOptions::Check(std::string* why) const {
   }
   if (!(default_depth_m > 0.0) || !std::isfinite(default_depth_m)) return fail("default_depth_m must be > 0");
   if (!(max_abs_cos > 0.0 && max_abs_cos <= 1.0)) return fail("max_abs_cos must be in (0, 1]");
+  if (!(max_rms_sigma > 0.0)) return fail("max_rms_sigma must be > 0");
   if (max_iterations < 0) return fail("max_iterations must be >= 0");
   if (!(sigma_px > 0.0) || !std::isfinite(sigma_px)) return fail("sigma_px must be > 0");
   if (!(up_sigma_rad > 0.0) || !std::isfinite(up_sigma_rad)) return fail("up_sigma_rad must be > 0");
-  if (!(min_triple_product >= 0.0)) return fail("min_triple_product must be >= 0");
+  if (!(min_triangle_area_px2 >= 0.0)) return fail("min_triangle_area_px2 must be >= 0");
   return true;
 }
 
@@ -101,6 +102,17 @@ SingleViewInitSummary InitializeFspSingleView(const Corners& corners_px, const M
     return Fail(s, Status::kInvalidInput, "up direction is zero or not finite");
   }
 
+  // Any three corners (nearly) collinear: degenerate.
+  for (int skip = 0; skip < 4; ++skip) {
+    Vec2 t[3];
+    for (int i = 0, k = 0; i < 4; ++i) {
+      if (i != skip) t[k++] = corners_px[i];
+    }
+    const Vec2 a = t[1] - t[0], b = t[2] - t[0];
+    if (0.5 * std::abs(a.x() * b.y() - a.y() * b.x()) < options.min_triangle_area_px2) {
+      return Fail(s, Status::kDegenerate, "three corners are (nearly) collinear");
+    }
+  }
   // m̃_i = K⁻¹ (u_i, v_i, 1).
   const Mat3 K_inv = K.inverse();
   Vec3 m[4];
@@ -108,9 +120,6 @@ SingleViewInitSummary InitializeFspSingleView(const Corners& corners_px, const M
   const Vec3 m13 = m[0].cross(m[2]);
   const double den2 = m[1].cross(m[2]).dot(m[3]);
   const double den4 = m[3].cross(m[2]).dot(m[1]);
-  if (std::abs(den2) <= options.min_triple_product || std::abs(den4) <= options.min_triple_product) {
-    return Fail(s, Status::kDegenerate, "three corners are collinear");
-  }
   // Zhang-He: relative depths with λ1 = 1 (header).
   s.c2 = m13.dot(m[3]) / den2;
   s.c4 = m13.dot(m[1]) / den4;
@@ -181,6 +190,11 @@ SingleViewInitSummary InitializeFspSingleView(const Corners& corners_px, const M
     Eigen::Map<Eigen::Vector4d>(s.landmark.q_F_O).normalize();
   }
   s.rms_px = RmsPx(s.landmark, corners_px, K);
+  if (options.refine && options.max_iterations > 0 && s.rms_px > options.max_rms_sigma * options.sigma_px) {
+    return Fail(s, Status::kNotRectangle,
+                "no rectangle fits the corners: RMS " + std::to_string(s.rms_px) + " px > " +
+                    std::to_string(options.max_rms_sigma * options.sigma_px) + " px");
+  }
   for (int j = 0; j < 4; ++j) {
     if (!(s.landmark.CornerDirF(j).z() > 0.0)) {
       return Fail(s, Status::kBehindCamera, "refined rectangle has a corner behind the camera");

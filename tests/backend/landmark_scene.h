@@ -61,10 +61,10 @@ inline TestObject RandomObject(std::mt19937& rng, double w_lo = 0.3, double w_hi
 
 // Camera (x right, y down, z forward) at `distance` from the object's centre, in a direction tilted by
 // up to `max_tilt_rad` away from the object's normal, looking at the centre with a roll of up to `roll_rad`.
-inline Rigid3 CameraLookingAt(std::mt19937& rng, const TestObject& o, double distance, double max_tilt_rad,
-                              double roll_rad = 0.1) {
+// CameraAtTilt: the same with the tilt exactly `tilt_rad` (random azimuth).
+inline Rigid3 CameraAtTilt(std::mt19937& rng, const TestObject& o, double distance, double tilt,
+                           double roll_rad = 0.1) {
   const Mat3 R_W_O = o.T_W_O.R();
-  const double tilt = Uniform(rng, 0.0, max_tilt_rad);
   const double az = Uniform(rng, -M_PI, M_PI);
   const Vec3 dir_O(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
   const Vec3 centre = o.Centre();
@@ -79,6 +79,12 @@ inline Rigid3 CameraLookingAt(std::mt19937& rng, const TestObject& o, double dis
   R_W_C.col(2) = z;
   R_W_C = R_W_C * RotZ(Uniform(rng, -roll_rad, roll_rad));
   return Rigid3(R_W_C, p_W_C);
+}
+
+inline Rigid3 CameraLookingAt(std::mt19937& rng, const TestObject& o, double distance, double max_tilt_rad,
+                              double roll_rad = 0.1) {
+  const double tilt = Uniform(rng, 0.0, max_tilt_rad);
+  return CameraAtTilt(rng, o, distance, tilt, roll_rad);
 }
 
 // Ideal pinhole projection of the object's corners (undistorted pixels).
