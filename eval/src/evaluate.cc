@@ -139,28 +139,31 @@ Metrics Evaluate(const EvalPaths& paths, const EvalOptions& options) {
   return m;
 }
 
-nlohmann::json ToJson(const Metrics& m) {
-  nlohmann::json j = nlohmann::json::object();
+nlohmann::ordered_json ToJson(const Metrics& m) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::object();
   if (m.trajectory) {
     const TrajectoryMetrics& t = *m.trajectory;
-    nlohmann::json b;
+    nlohmann::ordered_json b;
+    // CONTRACT.md's fields first, then the rest of the statistics.
     b["pairs"] = t.pairs;
-    b["ref_poses"] = t.ref_poses;
-    b["est_poses"] = t.est_poses;
     b["align"] = ToString(t.alignment.mode);
     b["ate_rmse_m"] = t.ate.rmse;
-    b["ate_mean_m"] = t.ate.mean;
     b["ate_median_m"] = t.ate.median;
+    if (t.rpe_trans.count > 0) {
+      b["rpe_trans_rmse_m"] = t.rpe_trans.rmse;
+      b["rpe_rot_rmse_deg"] = t.rpe_rot.rmse;
+    }
+    b["ate_mean_m"] = t.ate.mean;
     b["ate_std_m"] = t.ate.std;
     b["ate_min_m"] = t.ate.min;
     b["ate_max_m"] = t.ate.max;
     if (t.rpe_trans.count > 0) {
       b["rpe_pairs"] = t.rpe_trans.count;
-      b["rpe_trans_rmse_m"] = t.rpe_trans.rmse;
       b["rpe_trans_median_m"] = t.rpe_trans.median;
-      b["rpe_rot_rmse_deg"] = t.rpe_rot.rmse;
       b["rpe_rot_median_deg"] = t.rpe_rot.median;
     }
+    b["ref_poses"] = t.ref_poses;
+    b["est_poses"] = t.est_poses;
     if (t.alignment.mode == AlignMode::kSim3) {
       b["scale"] = t.alignment.scale;
       b["scale_err"] = t.scale_error;
@@ -178,7 +181,7 @@ nlohmann::json ToJson(const Metrics& m) {
   }
   if (m.objects) {
     const ObjectMetrics& o = *m.objects;
-    nlohmann::json b;
+    nlohmann::ordered_json b;
     b["gt"] = o.gt;
     b["estimated"] = o.estimated;
     b["matched"] = o.matched;
@@ -190,7 +193,7 @@ nlohmann::json ToJson(const Metrics& m) {
       b["height_err_mean_m"] = o.height_err.mean;
       b["height_err_max_m"] = o.height_err.max;
       b["normal_err_mean_deg"] = o.normal_err_deg.mean;
-      nlohmann::json per = nlohmann::json::array();
+      nlohmann::ordered_json per = nlohmann::ordered_json::array();
       for (const ObjectError& e : o.per_object) {
         per.push_back({{"id", e.id},
                        {"corner_err_mean_m", e.corner_err_mean_m},
@@ -204,14 +207,12 @@ nlohmann::json ToJson(const Metrics& m) {
   }
   if (m.frontend) {
     const FrontendMetrics& f = *m.frontend;
-    nlohmann::json b;
+    nlohmann::ordered_json b;
     if (f.recall) b["recall"] = *f.recall;
     if (f.precision) b["precision"] = *f.precision;
-    if (f.corner_err_px.count > 0) {
-      b["corner_err_px_median"] = f.corner_err_px.median;
-      b["corner_err_px_mean"] = f.corner_err_px.mean;
-    }
+    if (f.corner_err_px.count > 0) b["corner_err_px_median"] = f.corner_err_px.median;
     b["id_switches"] = f.id_switches;
+    if (f.corner_err_px.count > 0) b["corner_err_px_mean"] = f.corner_err_px.mean;
     b["gt_rows"] = f.gt_rows;
     b["gt_fully_visible"] = f.gt_fully_visible;
     b["est_rows"] = f.est_rows;
@@ -220,7 +221,7 @@ nlohmann::json ToJson(const Metrics& m) {
     j["frontend"] = b;
   }
   if (m.runtime) {
-    nlohmann::json b = nlohmann::json::object();
+    nlohmann::ordered_json b = nlohmann::ordered_json::object();
     if (m.runtime->frames) {
       const double fr = *m.runtime->frames;
       if (fr == std::floor(fr) && std::abs(fr) < 9e15) b["frames"] = static_cast<int64_t>(fr);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 
 #include "fsp/common/csv.h"
@@ -15,14 +17,21 @@ namespace {
 
 constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
-// True when the first data row of PATH looks like EuRoC (integer nanoseconds in column 1).
+// True when PATH looks like a EuRoC ground-truth csv rather than a TUM file (see the header).
 bool LooksLikeEuroc(const std::string& path) {
+  {
+    std::ifstream in(path);
+    std::string first_line;
+    std::getline(in, first_line);
+    if (first_line.find("q_RS_w") != std::string::npos) return true;  // EuRoC's own header line
+  }
   TableReader reader(path, "trajectory file");
   std::vector<std::string> f;
   if (!reader.NextRow(&f) || f.empty()) return false;
+  if (f.size() == 11 || f.size() == 14 || f.size() == 17) return true;
   const std::string& first = f[0];
-  if (first.empty() || first.find_first_not_of("0123456789") != std::string::npos) return false;
-  return std::strtod(first.c_str(), nullptr) > 1e12;
+  if (f.size() != 8 || first.empty() || first.find_first_not_of("0123456789") != std::string::npos) return false;
+  return std::filesystem::path(path).extension() == ".csv" || std::strtod(first.c_str(), nullptr) > 1e12;
 }
 
 std::string Seconds(double s) {

@@ -1,11 +1,14 @@
 // Synthetic checks of association, alignment, ATE and RPE with known answers.
 #include <cmath>
+#include <fstream>
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "fsp/common/error.h"
+#include "fsp/common/time.h"
 #include "fsp/eval/trajectory_metrics.h"
+#include "test_util.h"
 
 namespace fsp::eval {
 namespace {
@@ -204,6 +207,26 @@ TEST(EvaluateTrajectory, NoOverlapAndTooFewPairsAreClearErrors) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("only 2 pose pairs within 0.01 s (need 3)"), std::string::npos) << e.what();
   }
+}
+
+TEST(ReadTrajectory, TellsEurocFromTum) {
+  const auto dir = test::ScratchDir();
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream((dir / name).string()) << text;
+    return (dir / name).string();
+  };
+  // 8 integer-stamped columns in a .csv: EuRoC (quaternion w first), times in ns.
+  const Trajectory euroc = ReadTrajectory(write("gt.csv", "1000,1,2,3,0,0,0,1\n2000,1,2,3,1,0,0,0\n"));
+  ASSERT_EQ(euroc.size(), 2u);
+  EXPECT_EQ(euroc.t_ns[0], 1000);
+  EXPECT_NEAR(std::abs(euroc.T_W_B[0].rotation().z()), 1.0, 1e-12);  // w=0, x=0, y=0, z=1
+  // 17 columns: EuRoC whatever the name; 8 columns in a .txt: TUM seconds (quaternion w last).
+  EXPECT_EQ(ReadTrajectory(write("gt.txt", "5,1,2,3,1,0,0,0,0,0,0,0,0,0,0,0,0\n")).t_ns[0], 5);
+  const Trajectory tum = ReadTrajectory(write("est.txt", "1000 1 2 3 0 0 0 1\n"));
+  EXPECT_EQ(tum.t_ns[0], 1000 * kNsPerSecond);
+  EXPECT_NEAR(tum.T_W_B[0].rotation().w(), 1.0, 1e-12);
+  // Real EuRoC stamps (> 1e12) are told apart in any file name.
+  EXPECT_EQ(ReadTrajectory(write("big.txt", "1403715524907143168,1,2,3,1,0,0,0\n")).t_ns[0], 1403715524907143168);
 }
 
 TEST(Stats, MatchesNumpyConventions) {

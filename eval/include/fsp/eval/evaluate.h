@@ -60,8 +60,9 @@ struct Metrics {
 // can be computed.
 Metrics Evaluate(const EvalPaths& paths, const EvalOptions& options);
 
-// metrics.json content: {"trajectory": {...}, "objects": {...}, "frontend": {...}, "runtime": {...}}.
-nlohmann::json ToJson(const Metrics& metrics);
+// metrics.json content: {"trajectory": {...}, "objects": {...}, "frontend": {...}, "runtime": {...}}, keys
+// in a fixed, readable order.
+nlohmann::ordered_json ToJson(const Metrics& metrics);
 // A few lines for a person.
 std::string FormatSummary(const Metrics& metrics);
 

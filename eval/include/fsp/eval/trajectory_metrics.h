@@ -34,8 +34,9 @@ struct Trajectory {
   size_t size() const { return T_W_B.size(); }
 };
 
-// Reads a TUM file or a EuRoC ground-truth csv. The format is told by the first data row: a first
-// column that is an integer above 1e12 (nanoseconds) means EuRoC, anything else TUM seconds.
+// Reads a TUM file or a EuRoC ground-truth csv. EuRoC when the first line is EuRoC's header (q_RS_w),
+// or the first data row has 11, 14 or 17 columns, or it has 8 columns whose first is an integer and the
+// file ends in .csv or that integer exceeds 1e12 (nanoseconds since 1970); TUM otherwise.
 // Repeated timestamps are accepted (evo keeps both poses; the first wins when the other trajectory
 // searches it), times that go backwards are not. Throws InputError on any problem (see
 // fsp/common/trajectory_io.h).
