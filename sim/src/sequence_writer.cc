@@ -124,20 +124,13 @@ void WriteObjectsJson(const Scene& scene, const fs::path& path) {
   WriteText(path, root.dump(1) + "\n");
 }
 
-// Frame k's pixel noise: v + N(0, sigma^2) per pixel, rounded and clamped to 0..255, from
-// std::seed_seq{seed, 2, k} (independent of threads and of other frames).
-void AddPixelNoise(double sigma, uint32_t seed, int k, cv::Mat* image) {
-  if (sigma <= 0.0) return;
-  std::seed_seq seq{seed, 2u, static_cast<uint32_t>(k)};
-  std::mt19937 rng(seq);
-  std::normal_distribution<double> normal(0.0, sigma);
-  for (int r = 0; r < image->rows; ++r) {
-    uint8_t* row = image->ptr<uint8_t>(r);
-    for (int c = 0; c < image->cols; ++c) {
-      const double v = std::round(row[c] + normal(rng));
-      row[c] = static_cast<uint8_t>(std::clamp(v, 0.0, 255.0));
-    }
-  }
+// SplitMix64 (Steele et al. 2014): a fast, well-mixed 64-bit generator, fully specified (unlike
+// std::normal_distribution, whose algorithm varies between standard libraries).
+uint64_t SplitMix64(uint64_t* state) {
+  uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
 }
 
 cv::Scalar ClassColour(ObjectClass c) {  // BGR
@@ -153,6 +146,28 @@ cv::Scalar ClassColour(ObjectClass c) {  // BGR
 }
 
 }  // namespace
+
+// n = (sum of four uniforms - 2) * sqrt(3): one SplitMix64 draw split into four 16-bit parts.
+void AddPixelNoise(double sigma, uint32_t seed, int k, cv::Mat* image) {
+  if (sigma <= 0.0) return;
+  std::seed_seq seq{seed, 2u, static_cast<uint32_t>(k)};
+  uint32_t words[2];
+  seq.generate(words, words + 2);
+  uint64_t state = (static_cast<uint64_t>(words[0]) << 32) | words[1];
+  constexpr float kInv16 = 1.0f / 65536.0f;
+  const float scale = static_cast<float>(sigma * std::sqrt(3.0));
+  for (int r = 0; r < image->rows; ++r) {
+    uint8_t* row = image->ptr<uint8_t>(r);
+    for (int c = 0; c < image->cols; ++c) {
+      const uint64_t z = SplitMix64(&state);
+      const float sum = static_cast<float>((z & 0xffff) + ((z >> 16) & 0xffff) + ((z >> 32) & 0xffff) + (z >> 48));
+      // Each 16-bit part is uniform on {0, ..., 65535}: (part + 0.5) / 65536 is centred on (0, 1).
+      const float n = ((sum + 2.0f) * kInv16 - 2.0f) * scale;
+      const float v = std::nearbyint(static_cast<float>(row[c]) + n);
+      row[c] = static_cast<uint8_t>(std::clamp(v, 0.0f, 255.0f));
+    }
+  }
+}
 
 bool SequenceOptions::Check(std::string* why) const {
   if (threads < 1 || threads > 64) {

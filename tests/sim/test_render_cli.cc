@@ -18,6 +18,7 @@
 #include "fsp/common/trajectory_io.h"
 #include "fsp/sim/imu_synth.h"
 #include "fsp/sim/scene.h"
+#include "fsp/sim/sequence_writer.h"
 #include "test_util.h"
 
 namespace fsp::sim {
@@ -63,6 +64,33 @@ std::map<std::string, std::string> Tree(const fs::path& dir) {
     if (e.is_regular_file()) files[fs::relative(e.path(), dir).string()] = Slurp(e.path());
   }
   return files;
+}
+
+TEST(PixelNoise, HasTheConfiguredSigmaAndDependsOnlyOnSeedAndFrame) {
+  const cv::Mat grey(480, 640, CV_8UC1, cv::Scalar(128));
+  cv::Mat a = grey.clone(), b = grey.clone(), c = grey.clone(), d = grey.clone();
+  AddPixelNoise(2.0, 1, 7, &a);
+  AddPixelNoise(2.0, 1, 7, &b);
+  AddPixelNoise(2.0, 1, 8, &c);
+  AddPixelNoise(2.0, 2, 7, &d);
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(a, c, cv::NORM_L1), 0.0);
+  EXPECT_GT(cv::norm(a, d, cv::NORM_L1), 0.0);
+  double sum = 0.0, sum2 = 0.0;
+  for (int r = 0; r < a.rows; ++r) {
+    for (int col = 0; col < a.cols; ++col) {
+      const double e = a.at<uint8_t>(r, col) - 128.0;
+      sum += e;
+      sum2 += e * e;
+    }
+  }
+  const double n = static_cast<double>(a.total());
+  EXPECT_NEAR(sum / n, 0.0, 0.02);
+  // Rounding to integers adds 1/12 grey level^2 of variance.
+  EXPECT_NEAR(std::sqrt(sum2 / n - 1.0 / 12.0), 2.0, 0.02);
+  cv::Mat e = grey.clone();
+  AddPixelNoise(0.0, 1, 7, &e);
+  EXPECT_EQ(cv::norm(e, grey, cv::NORM_INF), 0.0);
 }
 
 TEST(RenderCli, WritesAReadableSequenceWithConsistentGroundTruth) {
