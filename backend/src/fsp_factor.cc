@@ -131,7 +131,7 @@ FspFactor::FspFactor(const Corners& corners_px, const Mat3& K, const Rigid3& T_B
   FSP_CHECK(K_.row(2).isApprox(Eigen::RowVector3d(0.0, 0.0, 1.0)));
 }
 
-// Paper: FSP observation model (Sec. III of the FSP-SLAM paper), homogeneous form of DESIGN.md §3.
+// The paper's FSP observation model in homogeneous form (DESIGN.md §3; formula and frames in fsp_factor.h).
 bool FspFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const Rigid3 T_W_Bc = PoseFromBlock(parameters[0]);
   const Rigid3 T_W_Ba = PoseFromBlock(parameters[1]);

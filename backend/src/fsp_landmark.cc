@@ -1,5 +1,6 @@
 #include "fsp/backend/fsp_landmark.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "fsp/common/error.h"
@@ -44,6 +45,20 @@ Mat3 FspLandmark::R_F_O() const { return QuatFO().toRotationMatrix(); }
 double FspLandmark::Omega() const { return std::exp(x[kFspLogOmega]); }
 double FspLandmark::Wbar() const { return std::exp(x[kFspLogWbar]); }
 double FspLandmark::Form() const { return std::exp(x[kFspLogForm]); }
+
+Eigen::Matrix<double, 2, 5> FspLandmark::SizeJacobian() const {
+  Eigen::Matrix<double, 2, 5> J;
+  J << 0.0, 0.0, -1.0, 1.0, 0.0, 0.0, 0.0, -1.0, 1.0, -1.0;
+  J.row(0) *= Width();
+  J.row(1) *= Height();
+  return J;
+}
+
+Eigen::Vector2d FspLandmark::SizeSigma(const Eigen::Matrix<double, 5, 5>& cov_x) const {
+  const Eigen::Matrix<double, 2, 5> J = SizeJacobian();
+  const Eigen::Matrix2d cov = J * cov_x * J.transpose();
+  return Eigen::Vector2d(std::sqrt(std::max(cov(0, 0), 0.0)), std::sqrt(std::max(cov(1, 1), 0.0)));
+}
 
 Vec3 FspLandmark::SBar(int j) const {
   FSP_CHECK(j >= 0 && j < 4);

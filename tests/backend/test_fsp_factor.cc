@@ -59,6 +59,26 @@ TEST(FspLandmark, FromObjectReproducesCornersAndSize) {
   }
 }
 
+TEST(FspLandmark, SizeJacobianAndSigma) {
+  std::mt19937 rng(13);
+  const Scene s = MakeScene(rng);
+  FspLandmark l = s.landmark;
+  const Eigen::Matrix<double, 2, 5> J = l.SizeJacobian();
+  for (int i = 0; i < 5; ++i) {
+    FspLandmark p = l, m = l;
+    p.x[i] += 1e-6;
+    m.x[i] -= 1e-6;
+    EXPECT_NEAR(J(0, i), (p.Width() - m.Width()) / 2e-6, 1e-8) << i;
+    EXPECT_NEAR(J(1, i), (p.Height() - m.Height()) / 2e-6, 1e-8) << i;
+  }
+  // Only log ω uncertain (σ = 0.1): σ_w = 0.1 w, σ_h = 0.1 h.
+  Eigen::Matrix<double, 5, 5> cov = Eigen::Matrix<double, 5, 5>::Zero();
+  cov(kFspLogOmega, kFspLogOmega) = 0.01;
+  const Eigen::Vector2d sigma = l.SizeSigma(cov);
+  EXPECT_NEAR(sigma.x(), 0.1 * l.Width(), 1e-12);
+  EXPECT_NEAR(sigma.y(), 0.1 * l.Height(), 1e-12);
+}
+
 TEST(FspLandmark, LeftRotationJacobianMatchesCeresPlus) {
   // J · PlusJacobian(q) = 2 I for ceres::EigenQuaternionManifold (Plus = Exp(2δ) on the left), and the
   // radial direction maps to zero: the Jacobian differentiates R(q/|q|).

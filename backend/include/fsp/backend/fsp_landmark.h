@@ -75,6 +75,12 @@ struct FspLandmark {
   double Form() const;
   double Width() const { return Wbar() / Omega(); }             // w = w̄ / ω [m]
   double Height() const { return Wbar() / (Form() * Omega()); }  // h = w̄ / (f ω) [m]
+  // Jacobian of (w, h) w.r.t. x (for width/height σ from the covariance of x): with
+  // w = exp(log w̄ − log ω), h = exp(log w̄ − log ω − log f):
+  //   ∂w/∂x = w (0, 0, −1, 1, 0),   ∂h/∂x = h (0, 0, −1, 1, −1).
+  Eigen::Matrix<double, 2, 5> SizeJacobian() const;
+  // (σ_w, σ_h) [m] from a 5×5 covariance of x (first order).
+  Eigen::Vector2d SizeSigma(const Eigen::Matrix<double, 5, 5>& cov_x) const;
 
   // s̄_j in O (unit-depth scale), j = 0..3.
   Vec3 SBar(int j) const;
