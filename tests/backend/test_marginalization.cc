@@ -13,6 +13,8 @@
 
 #include "backend/imu_test_util.h"
 #include "backend/jacobian_check.h"
+#include "fsp/backend/fsp_factor.h"
+#include "fsp/backend/fsp_landmark.h"
 #include "fsp/backend/imu_factor.h"
 #include "fsp/backend/manifolds.h"
 #include "fsp/backend/marginalization.h"
@@ -144,15 +146,23 @@ struct Window {
   std::unique_ptr<ceres::Problem> problem;
   PoseManifold pose_manifold;
 
-  explicit Window(int n_kf) {
+  // FSP rectangles instead of points: anchored at keyframes 1 and 2, observed by every keyframe
+  // through the landmark helper's FspFactor (FspAnchorFactor in the anchor).
+  std::vector<FspLandmark> objects;
+  std::vector<int> anchor_of;
+  ceres::EigenQuaternionManifold quat_manifold;
+  Rigid3 T_B_C{Mat3((Mat3() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished().transpose()), Vec3(0.05, 0.0, 0.02)};
+  Mat3 K = (Mat3() << 450, 0, 370, 0, 450, 250, 0, 0, 1).finished();
+
+  explicit Window(int n_kf, bool fsp = false, double spacing = 0.4) {
     kf.reserve(n_kf);
     points.reserve(12);
     const Vec3 bg(0.003, -0.002, 0.001), ba(0.05, -0.02, 0.03);
     test::ImuSamplingOptions so;
     so.bg = bg;
     so.ba = ba;
-    const auto imu = test::SampleImu(traj, 0.5, 1.0 + 0.4 * n_kf + 0.5, so);
-    for (int k = 0; k < n_kf; ++k) kf.push_back(traj.State(1.0 + 0.4 * k, bg, ba));
+    const auto imu = test::SampleImu(traj, 0.5, 1.0 + spacing * n_kf + 0.5, so);
+    for (int k = 0; k < n_kf; ++k) kf.push_back(traj.State(1.0 + spacing * k, bg, ba));
     for (int i = 0; i < 12; ++i) {
       const double a = 0.5 * i;
       points.emplace_back(4.0 * std::cos(a), 0.5 + 4.0 * std::sin(a), 1.5 * std::sin(1.7 * a));
@@ -165,8 +175,36 @@ struct Window {
       problem->AddResidualBlock(new ImuFactor(pre.back()), nullptr, kf[k].pose, kf[k].speed_bias, kf[k + 1].pose,
                                 kf[k + 1].speed_bias);
     }
+    for (int k = 0; k < n_kf; ++k) problem->SetManifold(kf[k].pose, &pose_manifold);
+    if (fsp) {
+      objects.reserve(6);
+      for (int o = 0; o < 6; ++o) {
+        const int a = 1 + o % 2;
+        // In the anchor camera: 3..5 m ahead, spread sideways, tilted, 0.6..1.1 m wide.
+        const Rigid3 T_F_O(RotY(0.3 * (o - 2.5) / 2.5) * RotX(0.2 * (o % 3 - 1)),
+                           Vec3(-1.2 + 0.5 * o, 0.4 * (o % 3) - 0.6, 3.0 + 0.4 * o));
+        objects.push_back(FspLandmark::FromObject(T_F_O, 0.6 + 0.1 * o, 0.5 + 0.08 * o));
+        anchor_of.push_back(a);
+      }
+      for (size_t o = 0; o < objects.size(); ++o) {
+        FspLandmark& L = objects[o];
+        problem->AddParameterBlock(L.q_F_O, 4, &quat_manifold);
+        const int a = anchor_of[o];
+        const Rigid3 T_W_F = kf[a].T_W_B() * T_B_C;
+        for (int k = 0; k < n_kf; ++k) {
+          const CornerPrediction pred = PredictFspCorners(K, kf[k].T_W_B() * T_B_C, T_W_F, L);
+          EXPECT_TRUE(pred.in_front) << "object " << o << " keyframe " << k;
+          if (k == a) {
+            problem->AddResidualBlock(new FspAnchorFactor(pred.uv, K, FspFactorOptions{}), nullptr, L.q_F_O, L.x);
+          } else {
+            problem->AddResidualBlock(new FspFactor(pred.uv, K, T_B_C, FspFactorOptions{}), nullptr, kf[k].pose,
+                                      kf[a].pose, L.q_F_O, L.x);
+          }
+        }
+      }
+      return;
+    }
     for (int k = 0; k < n_kf; ++k) {
-      problem->SetManifold(kf[k].pose, &pose_manifold);
       for (Vec3& l : points) {
         const Rigid3 T = kf[k].T_W_B();
         problem->AddResidualBlock(
@@ -234,7 +272,11 @@ Eigen::MatrixXd GaugeDirections(const std::vector<double*>& order, const std::un
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n, 4);
   int off = 0;
   for (double* p : order) {
-    const int k = kind.at(p);  // 0 pose, 1 speed_bias, 2 point
+    const int k = kind.at(p);  // 0 pose, 1 speed_bias, 2 point, 3 q_F_O, 4 FSP x (anchor-relative)
+    if (k == 3 || k == 4) {  // FSP parameters are relative to their anchor: the gauge leaves them alone
+      off += k == 3 ? 3 : 5;
+      continue;
+    }
     const Vec3 x(p[0], p[1], p[2]);
     const Vec3 yaw = Vec3::UnitZ().cross(x);
     if (k == 0) {
@@ -323,6 +365,60 @@ TEST(Marginalization, WindowHessianHasExactlyFourDimensionalNullspace) {
   // Noise-free window at the truth: the prior's residual is at the level of the whitened IMU
   // discretisation error (|r0| ~ 1e-5), not zero.
   EXPECT_LT(prior.prior().r0.norm(), 1e-3);
+}
+
+TEST(Marginalization, WindowWithFspRectanglesHasExactlyFourDimensionalNullspace) {
+  Window w(5, /*fsp=*/true, /*spacing=*/0.25);
+  std::vector<double*> order;
+  std::unordered_map<const double*, int> kind, ambient;
+  for (KeyframeState& k : w.kf) {
+    order.push_back(k.pose);
+    order.push_back(k.speed_bias);
+    kind[k.pose] = 0;
+    kind[k.speed_bias] = 1;
+    ambient[k.pose] = 7;
+    ambient[k.speed_bias] = 9;
+  }
+  for (FspLandmark& L : w.objects) {
+    order.push_back(L.q_F_O);
+    order.push_back(L.x);
+    kind[L.q_F_O] = 3;
+    kind[L.x] = 4;
+    ambient[L.q_F_O] = 4;
+    ambient[L.x] = 5;
+  }
+  std::vector<ResidualBlockInput> blocks;
+  std::unordered_map<const double*, const ceres::Manifold*> manifolds;
+  CollectResidualBlocks(*w.problem, order, &blocks, &manifolds);
+  auto check = [&](const char* what, const Eigen::MatrixXd& H, const std::vector<double*>& ord) {
+    const Eigen::VectorXd ev = ScaledEigenvalues(H);
+    const double max_ev = ev.maxCoeff();
+    std::printf("[marginalization] FSP %s: dim %d, smallest scaled eigenvalues / max:", what, static_cast<int>(H.rows()));
+    for (int i = 0; i < 6; ++i) std::printf(" %.1e", ev[i] / max_ev);
+    std::printf("\n");
+    int null_dim = 0;
+    for (int i = 0; i < ev.size(); ++i) null_dim += ev[i] < 1e-11 * max_ev ? 1 : 0;
+    EXPECT_EQ(null_dim, 4) << what;
+    const Eigen::MatrixXd G = GaugeDirections(ord, kind, static_cast<int>(H.rows()));
+    EXPECT_LT((H * G).norm() / (H.norm() * G.norm()), 1e-12) << what;
+  };
+  check("window of 5 keyframes, 6 rectangles", TangentHessian(blocks, order, manifolds, ambient), order);
+  std::vector<ResidualBlockInput> touching;
+  std::unordered_map<const double*, const ceres::Manifold*> tm;
+  CollectResidualBlocks(*w.problem, {w.kf[0].pose, w.kf[0].speed_bias}, &touching, &tm);
+  const MarginalizationSummary ms = Marginalize(touching, {w.kf[0].pose, w.kf[0].speed_bias}, tm);
+  ASSERT_TRUE(ms.success) << ms.reason;
+  MarginalizationPriorFactor prior(ms.prior);
+  std::vector<ResidualBlockInput> after = {{&prior, nullptr, ms.prior->blocks}};
+  for (const ResidualBlockInput& rb : blocks) {
+    const auto& pb = rb.parameter_blocks;
+    if (std::find(pb.begin(), pb.end(), w.kf[0].pose) == pb.end() &&
+        std::find(pb.begin(), pb.end(), w.kf[0].speed_bias) == pb.end()) {
+      after.push_back(rb);
+    }
+  }
+  const std::vector<double*> kept(order.begin() + 2, order.end());
+  check("after marginalising the oldest keyframe", TangentHessian(after, kept, manifolds, ambient), kept);
 }
 
 TEST(Marginalization, PriorFactorJacobians) {
