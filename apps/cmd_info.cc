@@ -127,11 +127,11 @@ void RunInfo(const InfoArgs& args) {
 
 void AddInfoCommand(CLI::App& root) {
   auto args = std::make_shared<InfoArgs>();
-  auto* sub = root.add_subcommand(
-      "info",
-      "Describe a recording: frames, IMU samples, time span, calibration. INPUT is a EuRoC folder (DIR/mav0 or\n"
-      "mav0 itself), a video file (with --imu and --calib), or a folder of images named <t_ns>.png or listed\n"
-      "in a data.csv (with --imu and --calib). Every image is decoded to verify it unless --quick.");
+  auto* sub = root.add_subcommand("info", "Describe a recording: frames, IMU samples, time span, calibration");
+  sub->footer(
+      "INPUT is a EuRoC folder (DIR/mav0 or mav0 itself), a video file (with --imu and --calib), or a folder\n"
+      "of images named <t_ns>.png or listed in a data.csv (with --imu and --calib). Every image is decoded\n"
+      "to verify it unless --quick. Bad input: one line 'fsp: error: FILE:LINE: what' and exit code 2.");
   sub->add_option("INPUT", args->source.input, "EuRoC dataset folder, video file or image folder")->required();
   sub->add_option("--calib", args->source.calib,
                   "calibration: EuRoC cam0/sensor.yaml, Kalibr camchain or fsp calib.yaml (overrides EuRoC's)");

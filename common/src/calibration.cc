@@ -219,7 +219,7 @@ void WriteCalibration(const Calibration& calib, const std::string& path) {
      << "T_B_C: [";
   const Mat4 M = calib.T_B_C.Matrix();
   for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) os << Num(M(r, c)) << (r == 3 && c == 3 ? "" : ", ");
+    for (int c = 0; c < 4; ++c) os << Num(M(r, c)) << (c < 3 ? ", " : r < 3 ? "," : "");
     if (r < 3) os << "\n        ";
   }
   os << "]\n"

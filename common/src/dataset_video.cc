@@ -112,18 +112,23 @@ FrameList ScanVideo(const std::string& video, const std::string& frame_times) {
                                            std::to_string(n) + " frames");
     }
   } else {
-    bool clock_ok = true;
+    const bool fps_ok = fps > 0.0 && std::isfinite(fps);
+    bool clock_ok = true;        // strictly increasing
+    bool constant_rate = fps_ok;  // t_k = k / fps to the clock's resolution
     for (int i = 0; i < n; ++i) {
+      const double ms = msec[static_cast<size_t>(i)];
       // Video clocks have at best microsecond resolution: round there so 50 ms is exactly 50'000'000 ns.
-      const int64_t t = std::llround(msec[static_cast<size_t>(i)] * 1e3) * 1000;
-      if (!std::isfinite(msec[static_cast<size_t>(i)]) || (i > 0 && t <= list.t_ns.back())) clock_ok = false;
+      const int64_t t = std::isfinite(ms) ? std::llround(ms * 1e3) * 1000 : 0;
+      if (!std::isfinite(ms) || (i > 0 && t <= list.t_ns.back())) clock_ok = false;
+      if (constant_rate && std::abs(static_cast<double>(t) - i * 1e9 / fps) > 2000.0) constant_rate = false;
       list.t_ns.push_back(t);
     }
-    if (!clock_ok) {
-      if (!(fps > 0.0) || !std::isfinite(fps)) {
-        throw InputError(video, 0, "video has neither a usable clock nor a frame rate: pass --frame-times FILE");
-      }
-      // t_k = k / fps
+    if (!clock_ok && !fps_ok) {
+      throw InputError(video, 0, "video has neither a usable clock nor a frame rate: pass --frame-times FILE");
+    }
+    if (!clock_ok || constant_rate) {
+      // t_k = round(k * 1e9 / fps): exact nanoseconds for a constant-rate video (the renderer's own
+      // frame times at any rate, e.g. 33'333'333 ns at 30 Hz), and the fallback for a broken clock.
       for (int i = 0; i < n; ++i) list.t_ns[static_cast<size_t>(i)] = std::llround(i * 1e9 / fps);
     }
   }

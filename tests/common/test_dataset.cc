@@ -248,6 +248,26 @@ TEST(Dataset, VideoTriple) {
   EXPECT_EQ(j.at("kind").get<std::string>(), "video");
 }
 
+// A constant-rate video gets the renderer's exact frame times round(k * 1e9 / fps), also at 30 Hz.
+TEST(Dataset, VideoAt30HzHasExactNanosecondTimes) {
+  const auto dir = test::ScratchDir();
+  const auto video = (dir / "video.mp4").string();
+  {
+    cv::VideoWriter writer(video, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), 30.0, cv::Size(test::kW, test::kH),
+                           false);
+    ASSERT_TRUE(writer.isOpened());
+    for (int k = 0; k < 4; ++k) writer.write(test::TestImage(k));
+  }
+  WriteImuCsv(test::TestImu(0, 200'000'000), (dir / "imu.csv").string());
+  WriteCalibration(test::TestCalibration(), (dir / "calib.yaml").string());
+  SourceOptions opts;
+  opts.input = video;
+  opts.imu = (dir / "imu.csv").string();
+  opts.calib = (dir / "calib.yaml").string();
+  auto src = OpenSource(opts);
+  EXPECT_EQ(src->frame_times(), (std::vector<int64_t>{0, 33'333'333, 66'666'667, 100'000'000}));
+}
+
 // Images named by their timestamps, colour or grey, any supported extension.
 TEST(Dataset, ImageFolderNamedByTimestamps) {
   const auto dir = test::ScratchDir();

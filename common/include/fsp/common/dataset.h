@@ -6,9 +6,10 @@
 //    ("#timestamp [ns],filename") + cam0/data/*, imu0/data.csv, cam0/sensor.yaml (+ imu0/sensor.yaml for
 //    the IMU noise). --calib and --imu override the files of the folder when given.
 //  - a video file + --imu CSV + --calib FILE. Frame k's time is the video clock (CAP_PROP_POS_MSEC,
-//    rounded to 1 us; k / fps when the container has no usable clock), or line k of --frame-times FILE
-//    (one t_ns per line, or a csv whose first column is t_ns). Rendered sequences start at t = 0, so
-//    video.mp4 + imu.csv + calib.yaml line up with no offset.
+//    rounded to 1 us); when that clock agrees with k / fps to 2 us (a constant-rate video) or is
+//    unusable, round(k * 1e9 / fps) exactly, which is the renderer's own frame time at any rate.
+//    Or line k of --frame-times FILE (one t_ns per line, or a csv whose first column is t_ns).
+//    Rendered sequences start at t = 0, so video.mp4 + imu.csv + calib.yaml line up with no offset.
 //  - a folder of images (png, jpg, jpeg, pgm, bmp) named by nanosecond timestamps
 //    (1403715273262142976.png), or listed in a data.csv inside the folder (EuRoC cam0 style: names
 //    relative to FOLDER/data/ when that folder holds them, else to FOLDER), + --imu + --calib.
