@@ -1,5 +1,7 @@
 // fsp render SCENE.yaml --out DIR [--seed N] [--duration S]: render a benchmark sequence with ground truth.
+#include <cmath>
 #include <cstdio>
+#include <exception>
 #include <memory>
 #include <string>
 
@@ -16,22 +18,20 @@ struct RenderArgs {
   std::string scene;
   std::string out;
   int64_t seed = -1;          // < 0: the scene's noise.seed
-  double duration_s = -1.0;   // < 0: the scene's duration_s
+  double duration_s = -1.0;   // <= 0: the scene's duration_s
   sim::SequenceOptions options;
   bool no_images = false;
 };
 
 void RunRender(const RenderArgs& args) {
   sim::Scene scene = sim::LoadScene(args.scene);
-  if (args.seed >= 0) {
-    if (args.seed > 0xffffffffLL) throw InputError("--seed must be in 0..4294967295");
-    scene.seed = static_cast<uint32_t>(args.seed);
-  }
-  if (args.duration_s >= 0.0) {
-    if (!(args.duration_s > 0.0)) throw InputError("--duration must be > 0");
+  if (args.seed >= 0) scene.seed = static_cast<uint32_t>(args.seed);
+  if (args.duration_s > 0.0) {
     if (args.duration_s > scene.trajectory.t_end()) {
-      throw InputError(args.scene + ": --duration " + std::to_string(args.duration_s) +
-                       " s is longer than the trajectory (" + std::to_string(scene.trajectory.t_end()) + " s)");
+      char msg[160];
+      std::snprintf(msg, sizeof(msg), "--duration %g s is longer than the trajectory (%g s)", args.duration_s,
+                    scene.trajectory.t_end());
+      throw InputError(args.scene, 0, msg);
     }
     scene.duration_s = args.duration_s;
   }
@@ -64,8 +64,18 @@ void AddRenderCommand(CLI::App& root) {
       "(scene file format: CONTRACT.md; example: assets/scenes/default_room.yaml)");
   sub->add_option("SCENE", args->scene, "scene file (YAML)")->required();
   sub->add_option("--out", args->out, "output folder (created)")->required();
-  sub->add_option("--seed", args->seed, "random seed of all noise (default: the scene's noise.seed)");
-  sub->add_option("--duration", args->duration_s, "seconds to render from t = 0 (default: the scene's duration_s)");
+  sub->add_option("--seed", args->seed, "random seed of all noise (default: the scene's noise.seed)")
+      ->check(CLI::Range(int64_t{0}, int64_t{0xffffffffLL}));
+  sub->add_option("--duration", args->duration_s, "seconds to render from t = 0 (default: the scene's duration_s)")
+      ->check([](const std::string& text) {
+        try {
+          size_t used = 0;
+          const double v = std::stod(text, &used);
+          if (used == text.size() && v > 0.0 && std::isfinite(v)) return std::string();
+        } catch (const std::exception&) {
+        }
+        return "must be a positive number of seconds, not '" + text + "'";
+      });
   sub->add_option("--threads", args->options.threads, "frames rendered in parallel (output does not depend on it)")
       ->check(CLI::Range(1, 64));
   sub->add_flag("--no-images", args->no_images,
