@@ -4,7 +4,6 @@
 #include <system_error>
 
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "fsp/common/error.h"
 
@@ -17,11 +16,12 @@ cv::Mat ReadGray8(const std::string& path) {
   const auto size = std::filesystem::file_size(path, ec);
   if (ec) throw InputError(path, 0, "cannot read image file (" + ec.message() + ")");
   if (size == 0) throw InputError(path, 0, "image file is empty (0 bytes)");
-  // IMREAD_UNCHANGED keeps the bit depth so a 16-bit image can be refused instead of scaled.
+  // Grey decoding (for JPEG: the luma channel itself, as libjpeg / apriltag's decoder give it) that
+  // keeps the bit depth (ANYDEPTH) so a 16-bit image can be refused instead of scaled.
   cv::Mat img;
   try {
-    img = cv::imread(path, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
+    img = cv::imread(path, cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
+  } catch (const cv::Exception&) {
     throw InputError(path, 0, "image does not decode");
   }
   if (img.empty()) throw InputError(path, 0, "image does not decode (not a PNG/JPEG/... or corrupt)");
@@ -31,14 +31,8 @@ cv::Mat ReadGray8(const std::string& path) {
                                   "); convert it to 8-bit first");
   if (img.rows < 8 || img.cols < 8)
     throw InputError(path, 0, "image is too small (" + std::to_string(img.cols) + "x" + std::to_string(img.rows) + ")");
-  cv::Mat gray;
-  switch (img.channels()) {
-    case 1: gray = img; break;
-    case 3: cv::cvtColor(img, gray, cv::COLOR_BGR2GRAY); break;
-    case 4: cv::cvtColor(img, gray, cv::COLOR_BGRA2GRAY); break;
-    default: throw InputError(path, 0, "image has " + std::to_string(img.channels()) + " channels");
-  }
-  return gray;
+  FSP_CHECK(img.channels() == 1);
+  return img;
 }
 
 }  // namespace fsp::frontend

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <numeric>
 #include <random>
 #include <sstream>
@@ -187,6 +189,12 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
     const double gap = std::max(lo - lng.len, -hi);
     return gap <= gap_px;
   };
+  // A smoothly bending edge (bent paper, residual distortion) splits into pieces that are not collinear
+  // within line_px but continue each other: the end of one touches the start of the next.
+  auto continues = [&](const Seg& s, const Seg& t) {
+    if (s.dir.dot(t.dir) < std::cos(tol)) return false;
+    return (s.b - t.a).norm() <= line_px || (t.b - s.a).norm() <= line_px;
+  };
   for (int oi = 0; oi < n; ++oi) {
     const int i = order[oi];
     // Neighbours in angle (with wrap-around at π).
@@ -195,7 +203,7 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
       double d = theta[j] - theta[i];
       if (d < 0) d += 2 * M_PI;
       if (d > tol) break;
-      if (compatible(in[i], in[j])) parent[find(i)] = find(j);
+      if (compatible(in[i], in[j]) || continues(in[i], in[j])) parent[find(i)] = find(j);
     }
   }
   std::vector<std::vector<int>> groups(n);
@@ -223,6 +231,14 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
     Vec2 dir(l.n.y(), -l.n.x());
     if (dir.dot(in[g[0]].dir) < 0.0) dir = -dir;  // keep the polarity orientation
     const Vec2 p0 = l.c * l.n;
+    // Guard against chains of continuations that bend too far (an arc): keep the pieces then.
+    double worst = 0.0, extent = 0.0;
+    for (const auto& p : pts) worst = std::max(worst, std::abs(l.Dist(p)));
+    for (int i : g) extent += in[i].len;
+    if (worst > std::max(line_px, 0.01 * extent)) {
+      for (int i : g) out.push_back(in[i]);
+      continue;
+    }
     double lo = 1e300, hi = -1e300;
     for (const auto& p : pts) {
       const double t = (p - p0).dot(dir);
@@ -247,20 +263,27 @@ std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
   edges.row(H - 1).setTo(0);
   edges.col(0).setTo(0);
   edges.col(W - 1).setTo(0);
+  // The walk's heading is the direction over the last few steps (a digital line of slope 1/2 alternates
+  // between two 8-neighbour steps; a single-step heading would follow any branch at a junction).
   auto walk = [&](cv::Point p, int dir, std::vector<cv::Point>* out) {
+    constexpr int kMemory = 4;
     for (;;) {
-      int best = -1, best_score = -10;
+      cv::Point heading(dir >= 0 ? kDx[dir] : 0, dir >= 0 ? kDy[dir] : 0);
+      const int n = static_cast<int>(out->size());
+      if (n >= kMemory) heading = p - (*out)[n - kMemory];
+      const double hn = std::hypot(heading.x, heading.y);
+      int best = -1;
+      double best_score = -2.0;
       for (int k = 0; k < 8; ++k) {
         if (!edges.at<uint8_t>(p.y + kDy[k], p.x + kDx[k])) continue;
-        // Alignment with the previous step direction: 8 minus the angular distance in 45 deg units.
-        const int diff = dir < 0 ? 0 : std::min((k - dir + 8) % 8, (dir - k + 8) % 8);
-        const int score = 8 - diff;
+        const double score =
+            hn > 0 ? (kDx[k] * heading.x + kDy[k] * heading.y) / (hn * std::hypot(kDx[k], kDy[k])) : 1.0 - 0.01 * k;
         if (score > best_score) {
           best_score = score;
           best = k;
         }
       }
-      if (best < 0 || (dir >= 0 && best_score < 6)) return;  // stop at turns sharper than 90 deg
+      if (best < 0 || best_score < -1e-9) return;  // stop at turns sharper than 90 deg
       p = cv::Point(p.x + kDx[best], p.y + kDy[best]);
       edges.at<uint8_t>(p) = 0;
       out->push_back(p);
@@ -358,26 +381,68 @@ struct Quad {
   double area = 0.0;
 };
 
+// RANSAC over two-point lines (most inliers wins), then weighted TLS on the inliers, twice. Returns
+// the number of final inliers (0 on failure).
+int RansacLine(const std::vector<Vec2>& pts, const std::vector<double>& w, const std::vector<int>& subset,
+               double inlier_px, int iterations, std::mt19937* rng, Line* line) {
+  const int np = static_cast<int>(subset.size());
+  if (np < 2) return 0;
+  std::uniform_int_distribution<int> pick(0, np - 1);
+  int best_count = -1;
+  Line best_line;
+  for (int it = 0; it < iterations; ++it) {
+    const int i = subset[pick(*rng)];
+    int j = subset[pick(*rng)];
+    if (j == i) j = subset[(pick(*rng) + 1) % np];
+    const Vec2 d = pts[j] - pts[i];
+    if (d.norm() < 1e-9) continue;
+    Line l;
+    l.n = Vec2(-d.y(), d.x()).normalized();
+    l.c = l.n.dot(pts[i]);
+    int count = 0;
+    for (int k : subset) count += std::abs(l.Dist(pts[k])) <= inlier_px;
+    if (count > best_count) {
+      best_count = count;
+      best_line = l;
+    }
+  }
+  if (best_count < 2) return 0;
+  Line l = best_line;
+  std::vector<int> inl;
+  for (int pass = 0; pass < 3; ++pass) {
+    inl.clear();
+    for (int k : subset)
+      if (std::abs(l.Dist(pts[k])) <= inlier_px) inl.push_back(k);
+    if (pass == 2) break;
+    if (static_cast<int>(inl.size()) < 2 || !FitLineTls(pts, w, inl, &l)) return 0;
+  }
+  *line = l;
+  return static_cast<int>(inl.size());
+}
+
 // Sub-pixel refinement of one quad. Side i joins corners c[i-1] and c[i]; its edge points come from 1-D
-// gradient peaks along the side's normal in the (smoothed, distorted) image.
+// gradient peaks along the side's normal in the (smoothed, distorted) image. Each side gets one RANSAC
+// line; when the lines fitted to its two halves disagree with it by more than `bend_px` at the corners
+// (a bent side: paper, residual distortion), each corner is taken from the half-lines next to it.
 bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetectorOptions& o,
                 double min_gradient, std::mt19937* rng, Quad* q) {
   const bool distort = cam != nullptr && cam->HasDistortion();
-  std::array<Line, 4> lines;
+  std::array<Line, 4> start_line, end_line;  // line used at the side's first / last corner
   double support_sum = 0.0;
   const int m = static_cast<int>(std::lround(o.search_px / o.search_step_px));
   std::vector<double> prof(2 * m + 1);
   std::vector<Vec2> pts;
-  std::vector<double> w;
+  std::vector<double> w, ts;
   std::vector<int> sign;
   for (int side = 0; side < 4; ++side) {
     const Vec2 P = q->c[(side + 3) % 4], Q = q->c[side];
     const double L = (Q - P).norm();
     const Vec2 u = (Q - P) / L, n(-u.y(), u.x());
     const double margin = std::max(o.corner_margin_frac * L, 1.0);
-    const int k_samples = std::max(4, std::min(o.samples_per_side, static_cast<int>(L - 2 * margin)));
+    const int k_samples = std::max(8, std::min(o.samples_per_side, static_cast<int>(L - 2 * margin)));
     pts.clear();
     w.clear();
+    ts.clear();
     sign.clear();
     int pos = 0, neg = 0;
     for (int k = 0; k < k_samples; ++k) {
@@ -390,8 +455,8 @@ bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetec
       }
       bool ok = true;
       for (int i = -m; i <= m && ok; ++i) {
-        const Vec2 s = qd + (i * o.search_step_px) * nd;
-        ok = Bilinear(smooth, s.x(), s.y(), &prof[i + m]);
+        const Vec2 sp = qd + (i * o.search_step_px) * nd;
+        ok = Bilinear(smooth, sp.x(), sp.y(), &prof[i + m]);
       }
       if (!ok) continue;
       // Derivative by central differences over one pixel (2 steps of 0.5 px): grey levels per px.
@@ -407,10 +472,11 @@ bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetec
       if (best <= 1 || best >= 2 * m - 1) continue;  // peak at the window's end: no edge inside
       const double gradient = best_abs / (2.0 * o.search_step_px);
       if (gradient < min_gradient) continue;
+      // Parabola through the derivative magnitudes at best-1, best, best+1: vertex offset in steps.
       const double dm = std::abs(prof[best] - prof[best - 2]);
       const double dp = std::abs(prof[best + 2] - prof[best]);
       const double den = dm - 2.0 * best_abs + dp;
-      const double delta = den < 0.0 ? 0.5 * (dm - dp) / den : 0.0;  // parabola vertex, in steps
+      const double delta = den < 0.0 ? 0.5 * (dm - dp) / den : 0.0;
       const double s_star = (best - m + std::clamp(delta, -0.5, 0.5)) * o.search_step_px;
       Vec2 e = qd + s_star * nd;
       if (distort) e = cam->UndistortPixel(e);
@@ -418,70 +484,51 @@ bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetec
       (sg > 0 ? pos : neg)++;
       pts.push_back(e);
       w.push_back(gradient);
+      ts.push_back(t);
       sign.push_back(sg);
     }
     // Keep the majority polarity: a side's edge has one polarity; the other is a neighbouring edge.
     const int keep = pos >= neg ? 1 : -1;
-    {
-      size_t j = 0;
-      for (size_t i = 0; i < pts.size(); ++i)
-        if (sign[i] == keep) {
-          pts[j] = pts[i];
-          w[j] = w[i];
-          ++j;
-        }
-      pts.resize(j);
-      w.resize(j);
+    std::vector<int> all, first, second;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (sign[i] != keep) continue;
+      all.push_back(static_cast<int>(i));
+      (ts[i] < 0.5 * L ? first : second).push_back(static_cast<int>(i));
     }
     const int need = static_cast<int>(std::ceil(o.min_side_support * k_samples));
-    if (static_cast<int>(pts.size()) < std::max(need, 2)) return false;
-    // RANSAC: two-point lines, most inliers wins; then weighted TLS on the inliers, twice.
-    const int np = static_cast<int>(pts.size());
-    std::uniform_int_distribution<int> pick(0, np - 1);
-    int best_count = -1;
-    Line best_line;
-    for (int it = 0; it < o.ransac_iterations; ++it) {
-      const int i = pick(*rng);
-      int j = pick(*rng);
-      if (j == i) j = (i + 1) % np;
-      const Vec2 d = pts[j] - pts[i];
-      if (d.norm() < 1e-9) continue;
-      Line l;
-      l.n = Vec2(-d.y(), d.x()).normalized();
-      l.c = l.n.dot(pts[i]);
-      int count = 0;
-      for (int k = 0; k < np; ++k) count += std::abs(l.Dist(pts[k])) <= o.ransac_inlier_px;
-      if (count > best_count) {
-        best_count = count;
-        best_line = l;
-      }
+    if (static_cast<int>(all.size()) < std::max(need, 2)) return false;
+    Line global;
+    const int n_global = RansacLine(pts, w, all, o.ransac_inlier_px, o.ransac_iterations, rng, &global);
+    Line l1, l2;
+    const int n1 = RansacLine(pts, w, first, o.ransac_inlier_px, o.ransac_iterations, rng, &l1);
+    const int n2 = RansacLine(pts, w, second, o.ransac_inlier_px, o.ransac_iterations, rng, &l2);
+    // Disagreement of a half-line with the global line at the corner it serves.
+    auto bend_at = [&](const Line& half, const Vec2& corner) {
+      const Vec2 on_half = corner - half.Dist(corner) * half.n;  // foot of the corner on the half-line
+      return std::abs(global.Dist(on_half));
+    };
+    const bool halves_ok = n1 >= std::max(2, need / 2) && n2 >= std::max(2, need / 2);
+    const bool bent = halves_ok && (bend_at(l1, P) > o.bend_px || bend_at(l2, Q) > o.bend_px);
+    if (!bent) {
+      if (n_global < need) return false;
+      start_line[side] = end_line[side] = global;
+      support_sum += static_cast<double>(n_global) / k_samples;
+    } else {
+      start_line[side] = l1;
+      end_line[side] = l2;
+      support_sum += static_cast<double>(n1 + n2) / k_samples;
     }
-    Line l = best_line;
-    std::vector<int> inl;
-    for (int pass = 0; pass < 2; ++pass) {
-      inl.clear();
-      for (int k = 0; k < np; ++k)
-        if (std::abs(l.Dist(pts[k])) <= o.ransac_inlier_px) inl.push_back(k);
-      if (static_cast<int>(inl.size()) < 2 || !FitLineTls(pts, w, inl, &l)) return false;
-    }
-    inl.clear();
-    for (int k = 0; k < np; ++k)
-      if (std::abs(l.Dist(pts[k])) <= o.ransac_inlier_px) inl.push_back(k);
-    const double support = static_cast<double>(inl.size()) / k_samples;
-    if (support < o.min_side_support) return false;
-    support_sum += support;
-    lines[side] = l;
   }
+  // Corner i joins side i (ending there) and side i+1 (starting there).
   Corners c;
   for (int i = 0; i < 4; ++i)
-    if (!Intersect(lines[i], lines[(i + 1) % 4], &c[i])) return false;
-  // Corner i is the intersection of side i (ending at corner i) and side i+1 (starting there).
+    if (!Intersect(end_line[i], start_line[(i + 1) % 4], &c[i])) return false;
   const double tol = 0.2 * ShortestSide(q->c) + 2.0 * o.search_px;
   for (int i = 0; i < 4; ++i)
     if ((c[i] - q->c[i]).norm() > tol) return false;
   if (!IsConvex(c)) return false;
   q->c = c;
-  q->score = support_sum / 4.0;
+  q->score = std::min(1.0, support_sum / 4.0);
   return true;
 }
 
@@ -537,8 +584,12 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   // 2. segments: edge chains split into straight pieces, each fitted by least squares.
   const int min_seg = std::max(4, static_cast<int>(std::lround(o.min_segment_frac * diag)));
   std::vector<std::pair<Vec2, Vec2>> raw;
-  for (const auto& chain : TraceChains(edges, min_seg))
-    SplitChain(chain, 0, static_cast<int>(chain.size()) - 1, o.segment_fit_px, min_seg, &raw);
+  // Pieces down to a third of the minimum length are kept for merging: a chain that runs into another
+  // edge takes a stretch of it, leaving short pieces of a long side that merging joins again.
+  const int min_piece = std::max(6, min_seg / 3);
+  for (const auto& chain : TraceChains(edges, min_piece))
+    SplitChain(chain, 0, static_cast<int>(chain.size()) - 1, o.segment_fit_px, min_piece, &raw);
+  if (std::getenv("FSP_DBG")) for (auto& r : raw) std::fprintf(stderr, "raw %.1f %.1f %.1f %.1f\n", r.first.x(), r.first.y(), r.second.x(), r.second.y());
   std::vector<Seg> segs;
   segs.reserve(raw.size());
   for (const auto& r : raw) {
@@ -564,6 +615,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     segs.push_back(MakeSeg(a, b));
   }
   segs = MergeCollinear(segs, o.merge_angle_deg, o.merge_line_px, o.merge_gap_frac * diag);
+  segs.erase(std::remove_if(segs.begin(), segs.end(), [&](const Seg& sg) { return sg.len < min_seg; }), segs.end());
   res.segments = static_cast<int>(segs.size());
   for (const Seg& sg : segs) res.segment_ends.emplace_back(sg.a, sg.b);
   res.times.Add("segments", sw.Lap());

@@ -64,7 +64,7 @@ struct RectDetectorOptions {
   // the collinear edges of neighbouring objects (a row of windows).
   double merge_angle_deg = 3.0;
   double merge_line_px = 2.0;
-  double merge_gap_frac = 0.02;
+  double merge_gap_frac = 0.04;
 
   // --- 3. grouping ---
   // Shortest side of a rectangle [fraction of the image diagonal]; 0.04 is ~32 px at 640x480.
@@ -90,7 +90,7 @@ struct RectDetectorOptions {
   // Sample spacing along the normal [px] (bilinear interpolation).
   double search_step_px = 0.5;
   // Edge samples per side (fewer: faster, noisier lines).
-  int samples_per_side = 32;
+  int samples_per_side = 40;
   // Part of each side next to its corners that is not sampled [fraction of the side], where the other
   // side's edge and corner rounding disturb the profile.
   double corner_margin_frac = 0.08;
@@ -99,6 +99,10 @@ struct RectDetectorOptions {
   int ransac_iterations = 24;
   // Seed of the RANSAC generator (results are deterministic for a given seed).
   uint32_t seed = 1;
+  // A side counts as bent when lines fitted to its halves leave its global line by more than this at
+  // the corners [px]; each corner then comes from the half-lines next to it (robust to bent paper and
+  // residual distortion, ~1.4x noisier than the global line on a straight side).
+  double bend_px = 0.35;
   // Least fraction of a side's samples that must be inliers of its line (edge support). Higher rejects
   // partly occluded rectangles.
   double min_side_support = 0.5;

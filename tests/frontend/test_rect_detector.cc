@@ -1,0 +1,201 @@
+// Rectangle detector on synthetic frames with exactly known corners (see synthetic.h), and on the
+// committed golden frame (data/README.md).
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "fsp/frontend/detection_eval.h"
+#include "fsp/frontend/rect_detector.h"
+#include "fsp/frontend/rect_geometry.h"
+#include "synthetic.h"
+#include "test_util.h"
+
+namespace fsp::frontend {
+namespace {
+
+// Corner errors of the best-matching detection per ground-truth quad, in s1..s4 order (no shift).
+std::vector<double> CornerErrors(const std::vector<Detection>& dets, const std::vector<test::SyntheticRect>& gt,
+                                 int* found) {
+  std::vector<double> errs;
+  *found = 0;
+  for (const auto& g : gt) {
+    const Detection* best = nullptr;
+    double best_d = 1e9;
+    for (const auto& d : dets) {
+      const double e = CornerDistanceBestShift(g.corners, d.corners_px);
+      if (e < best_d) {
+        best_d = e;
+        best = &d;
+      }
+    }
+    if (!best || best_d > 3.0) continue;
+    ++*found;
+    for (int i = 0; i < 4; ++i) errs.push_back((g.corners[i] - best->corners_px[i]).norm());
+  }
+  return errs;
+}
+
+double Median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+TEST(RectDetector, SubPixelCornersOnSyntheticFrames) {
+  RectDetector det;
+  std::vector<double> all;
+  for (uint32_t seed = 1; seed <= 5; ++seed) {
+    const test::SyntheticFrame fr = test::MakeSyntheticFrame(seed);
+    const auto res = det.Detect(fr.image);
+    int found = 0;
+    const auto errs = CornerErrors(res.detections, fr.rects, &found);
+    EXPECT_EQ(found, static_cast<int>(fr.rects.size())) << "seed " << seed;
+    EXPECT_EQ(res.detections.size(), fr.rects.size()) << "seed " << seed << ": false positives";
+    all.insert(all.end(), errs.begin(), errs.end());
+  }
+  ASSERT_FALSE(all.empty());
+  const double med = Median(all);
+  const double worst = *std::max_element(all.begin(), all.end());
+  std::printf("synthetic: %zu corners, median error %.3f px, max %.3f px\n", all.size(), med, worst);
+  EXPECT_LE(med, 0.3);
+  EXPECT_LE(worst, 1.0);
+}
+
+TEST(RectDetector, CornersComeOutInS1ToS4Order) {
+  const test::SyntheticFrame fr = test::MakeSyntheticFrame(7);
+  const auto res = RectDetector().Detect(fr.image);
+  for (const auto& g : fr.rects)
+    for (const auto& d : res.detections) {
+      int shift = -1;
+      if (CornerDistanceBestShift(g.corners, d.corners_px, &shift) < 3.0) {
+        EXPECT_EQ(shift, 0);
+      }
+    }
+}
+
+TEST(RectDetector, DistortedImageGivesStraightUndistortedSides) {
+  // Render the quads in undistorted pixels, then warp the image with the lens model: sides become
+  // curves. With the calibration the detector must return the undistorted corners.
+  PinholeRadtan cam;
+  cam.width = 640;
+  cam.height = 480;
+  cam.fx = cam.fy = 500.0;
+  cam.cx = 319.5;
+  cam.cy = 239.5;
+  cam.distortion = {-0.25, 0.07, 0.0005, -0.0003};
+  const test::SyntheticFrame ideal = test::MakeSyntheticFrame(3, 0.0, 0.0);
+  cv::Mat map_x(480, 640, CV_32F), map_y(480, 640, CV_32F);
+  for (int y = 0; y < 480; ++y)
+    for (int x = 0; x < 640; ++x) {
+      const Vec2 u = cam.UndistortPixel(Vec2(x, y));
+      map_x.at<float>(y, x) = static_cast<float>(u.x());
+      map_y.at<float>(y, x) = static_cast<float>(u.y());
+    }
+  cv::Mat distorted;
+  cv::remap(ideal.image, distorted, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::GaussianBlur(distorted, distorted, cv::Size(0, 0), 0.7);
+  const auto with = RectDetector().Detect(distorted, &cam);
+  int found = 0;
+  std::vector<Detection> as_undistorted = with.detections;
+  for (auto& d : as_undistorted) d.corners_px = d.corners_undistorted;
+  const auto errs = CornerErrors(as_undistorted, ideal.rects, &found);
+  EXPECT_EQ(found, static_cast<int>(ideal.rects.size()));
+  ASSERT_FALSE(errs.empty());
+  EXPECT_LE(Median(errs), 0.3);
+  // corners_px are the distorted positions of the same corners.
+  for (const auto& d : with.detections)
+    for (int i = 0; i < 4; ++i) EXPECT_LT((cam.DistortPixel(d.corners_undistorted[i]) - d.corners_px[i]).norm(), 1e-6);
+}
+
+TEST(RectDetector, BlankAndNoiseImagesGiveNothing) {
+  const cv::Mat flat(480, 640, CV_8UC1, cv::Scalar(128));
+  EXPECT_TRUE(RectDetector().Detect(flat).detections.empty());
+  const cv::Mat noise = test::RenderQuads(640, 480, {}, 0.0, 8.0, 5);
+  EXPECT_TRUE(RectDetector().Detect(noise).detections.empty());
+}
+
+TEST(RectDetector, DeterministicAcrossCalls) {
+  const test::SyntheticFrame fr = test::MakeSyntheticFrame(11);
+  RectDetector det;
+  const auto a = det.Detect(fr.image), b = det.Detect(fr.image);
+  ASSERT_EQ(a.detections.size(), b.detections.size());
+  for (size_t i = 0; i < a.detections.size(); ++i)
+    for (int k = 0; k < 4; ++k) EXPECT_EQ(a.detections[i].corners_px[k], b.detections[i].corners_px[k]);
+}
+
+TEST(RectDetector, OptionsCheck) {
+  RectDetector::Options o;
+  std::string why;
+  EXPECT_TRUE(o.Check(&why)) << why;
+  o.max_abs_cos = 0.0;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("max_abs_cos"), std::string::npos);
+}
+
+TEST(RectDetector, MatchFrameScoresRecallPrecisionAndError) {
+  const test::SyntheticFrame fr = test::MakeSyntheticFrame(2);
+  std::vector<GtObservation> gt;
+  for (size_t i = 0; i < fr.rects.size(); ++i) {
+    GtObservation g;
+    g.object_id = static_cast<int>(i);
+    g.corners = fr.rects[i].corners;
+    gt.push_back(g);
+  }
+  const auto res = RectDetector().Detect(fr.image);
+  const MatchStats s = MatchFrame(res.detections, gt);
+  EXPECT_EQ(s.gt_eligible, 4);
+  EXPECT_DOUBLE_EQ(s.Recall(), 1.0);
+  EXPECT_DOUBLE_EQ(s.Precision(), 1.0);
+  EXPECT_LE(s.ErrorQuantile(0.5), 0.3);
+  EXPECT_EQ(s.order_mismatches, 0);
+}
+
+// The committed golden frame: data/synthetic_golden.png with data/synthetic_golden_corners.csv.
+TEST(RectDetector, GoldenFrame) {
+  const std::string dir = FSP_FRONTEND_TEST_DATA;
+  const cv::Mat img = cv::imread(dir + "/synthetic_golden.png", cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(img.empty());
+  std::ifstream in(dir + "/synthetic_golden_corners.csv");
+  std::string line;
+  std::vector<test::SyntheticRect> gt;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::stringstream ss(line);
+    test::SyntheticRect r;
+    char comma;
+    int id;
+    ss >> id;
+    for (int i = 0; i < 4; ++i) {
+      double u, v;
+      ss >> comma >> u >> comma >> v;
+      r.corners[i] = Vec2(u, v);
+    }
+    gt.push_back(r);
+  }
+  ASSERT_EQ(gt.size(), 4u);
+  const auto res = RectDetector().Detect(img);
+  int found = 0;
+  const auto errs = CornerErrors(res.detections, gt, &found);
+  EXPECT_EQ(found, 4);
+  for (size_t i = 0; i < errs.size(); ++i) EXPECT_LE(errs[i], 1.0) << "corner " << i;
+  EXPECT_LE(Median(errs), 0.3);
+}
+
+// Writes the golden files (run by hand: --gtest_also_run_disabled_tests --gtest_filter=*WriteGolden*).
+TEST(RectDetector, DISABLED_WriteGolden) {
+  const test::SyntheticFrame fr = test::MakeSyntheticFrame(2024);
+  const std::string dir = FSP_FRONTEND_TEST_DATA;
+  cv::imwrite(dir + "/synthetic_golden.png", fr.image);
+  std::ofstream out(dir + "/synthetic_golden_corners.csv");
+  out << "# index,u1,v1,u2,v2,u3,v3,u4,v4  (s1..s4, pixels, OpenCV convention)\n";
+  out.precision(10);
+  for (size_t i = 0; i < fr.rects.size(); ++i) {
+    out << i;
+    for (const auto& c : fr.rects[i].corners) out << "," << c.x() << "," << c.y();
+    out << "\n";
+  }
+}
+
+}  // namespace
+}  // namespace fsp::frontend
