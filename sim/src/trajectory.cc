@@ -193,6 +193,7 @@ const Trajectory::Segment& Trajectory::SegmentAt(double t) const {
 
 Vec4 Trajectory::FlatDerivative(double t, int k) const {
   FSP_CHECK(k >= 0 && k <= 4);
+  FSP_CHECK(!segments_.empty());  // built by FromWaypoints / FromPoses
   if (t <= t_begin() || t >= t_end()) {
     // Outside the span the body holds the end pose: only the value is non-zero.
     if (k > 0) return Vec4::Zero();
