@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <numeric>
 #include <random>
 #include <sstream>
@@ -135,16 +133,19 @@ inline bool Bilinear(const cv::Mat& img, double x, double y, double* v) {
 // image is dominated by flat regions, where the magnitude of Gaussian noise is Rayleigh-distributed:
 // median = 1.177 σ_r. High threshold = max(multiple · σ_r, 4 · min_contrast) (Sobel's response to a sharp
 // step of C grey levels is 4C); low = ratio · high.
-void CannyThresholds(const cv::Mat& dx, const cv::Mat& dy, const RectDetectorOptions& o, double* low,
-                     double* high) {
+void CannyThresholds(const cv::Mat& smooth, const RectDetectorOptions& o, double* low, double* high) {
   constexpr int kBins = 2048;
   std::array<int, kBins> hist{};
   int n = 0;
-  for (int y = 1; y < dx.rows - 1; y += 2) {
-    const int16_t* px = dx.ptr<int16_t>(y);
-    const int16_t* py = dy.ptr<int16_t>(y);
-    for (int x = 1; x < dx.cols - 1; x += 2) {
-      const double m = std::sqrt(double(px[x]) * px[x] + double(py[x]) * py[x]);
+  // Sobel magnitude at every 3rd pixel of every 3rd row (~34k samples at 640x480, plenty for a median).
+  for (int y = 1; y < smooth.rows - 1; y += 3) {
+    const uint8_t* r0 = smooth.ptr<uint8_t>(y - 1);
+    const uint8_t* r1 = smooth.ptr<uint8_t>(y);
+    const uint8_t* r2 = smooth.ptr<uint8_t>(y + 1);
+    for (int x = 1; x < smooth.cols - 1; x += 3) {
+      const int gx = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
+      const int gy = (r2[x - 1] - r0[x - 1]) + 2 * (r2[x] - r0[x]) + (r2[x + 1] - r0[x + 1]);
+      const double m = std::sqrt(static_cast<double>(gx * gx + gy * gy));
       ++hist[std::min(kBins - 1, static_cast<int>(m))];
       ++n;
     }
@@ -256,6 +257,7 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
 std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
   static const int kDx[8] = {1, 1, 0, -1, -1, -1, 0, 1};
   static const int kDy[8] = {0, 1, 1, 1, 0, -1, -1, -1};
+  static const float kInvLen[8] = {1.f, 0.70710678f, 1.f, 0.70710678f, 1.f, 0.70710678f, 1.f, 0.70710678f};
   std::vector<std::vector<cv::Point>> chains;
   const int W = edges.cols, H = edges.rows;
   // Border pixels are cleared so neighbour lookups stay inside the image.
@@ -271,19 +273,23 @@ std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
       cv::Point heading(dir >= 0 ? kDx[dir] : 0, dir >= 0 ? kDy[dir] : 0);
       const int n = static_cast<int>(out->size());
       if (n >= kMemory) heading = p - (*out)[n - kMemory];
-      const double hn = std::hypot(heading.x, heading.y);
+      // Score: cosine between step k and the heading (up to the heading's positive length).
       int best = -1;
-      double best_score = -2.0;
+      float best_score = -1e30f;
+      const uint8_t* row_m = edges.ptr<uint8_t>(p.y - 1) + p.x;
+      const uint8_t* row_0 = edges.ptr<uint8_t>(p.y) + p.x;
+      const uint8_t* row_p = edges.ptr<uint8_t>(p.y + 1) + p.x;
+      const uint8_t* rows[3] = {row_m, row_0, row_p};
       for (int k = 0; k < 8; ++k) {
-        if (!edges.at<uint8_t>(p.y + kDy[k], p.x + kDx[k])) continue;
-        const double score =
-            hn > 0 ? (kDx[k] * heading.x + kDy[k] * heading.y) / (hn * std::hypot(kDx[k], kDy[k])) : 1.0 - 0.01 * k;
+        if (!rows[kDy[k] + 1][kDx[k]]) continue;
+        const float score = (dir < 0 && n == 0) ? -static_cast<float>(k)
+                                                : (kDx[k] * heading.x + kDy[k] * heading.y) * kInvLen[k];
         if (score > best_score) {
           best_score = score;
           best = k;
         }
       }
-      if (best < 0 || best_score < -1e-9) return;  // stop at turns sharper than 90 deg
+      if (best < 0 || (dir >= 0 && best_score < 0.0f)) return;  // stop at turns sharper than 90 deg
       p = cv::Point(p.x + kDx[best], p.y + kDy[best]);
       edges.at<uint8_t>(p) = 0;
       out->push_back(p);
@@ -573,12 +579,10 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   const PinholeRadtan* cam = camera && camera->HasDistortion() ? camera : nullptr;
 
   // 1. edges: light smoothing (σ = 1 px) against pixel noise, Sobel, Canny with data-driven thresholds.
-  cv::Mat smooth, dx, dy, edges;
+  cv::Mat smooth, edges;
   cv::GaussianBlur(gray, smooth, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
-  cv::Sobel(smooth, dx, CV_16S, 1, 0, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
-  cv::Sobel(smooth, dy, CV_16S, 0, 1, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
-  CannyThresholds(dx, dy, o, &res.canny_low, &res.canny_high);
-  cv::Canny(dx, dy, edges, res.canny_low, res.canny_high, true);
+  CannyThresholds(smooth, o, &res.canny_low, &res.canny_high);
+  cv::Canny(smooth, edges, res.canny_low, res.canny_high, 3, true);
   res.times.Add("edges", sw.Lap());
 
   // 2. segments: edge chains split into straight pieces, each fitted by least squares.
@@ -589,7 +593,6 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   const int min_piece = std::max(6, min_seg / 3);
   for (const auto& chain : TraceChains(edges, min_piece))
     SplitChain(chain, 0, static_cast<int>(chain.size()) - 1, o.segment_fit_px, min_piece, &raw);
-  if (std::getenv("FSP_DBG")) for (auto& r : raw) std::fprintf(stderr, "raw %.1f %.1f %.1f %.1f\n", r.first.x(), r.first.y(), r.second.x(), r.second.y());
   std::vector<Seg> segs;
   segs.reserve(raw.size());
   for (const auto& r : raw) {
@@ -598,13 +601,14 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     // (dy, -dx) for direction (dx, dy)), from the Sobel gradient at five points along the segment.
     {
       const Vec2 d = b - a;
-      const Vec2 left(d.y(), -d.x());
+      const Vec2 left = Vec2(d.y(), -d.x()).normalized();
       double sum = 0.0;
       for (int k = 1; k <= 5; ++k) {
         const Vec2 p = a + (k / 6.0) * d;
-        const int x = std::clamp(static_cast<int>(std::lround(p.x())), 0, dx.cols - 1);
-        const int y = std::clamp(static_cast<int>(std::lround(p.y())), 0, dx.rows - 1);
-        sum += left.x() * dx.at<int16_t>(y, x) + left.y() * dy.at<int16_t>(y, x);
+        double vl = 0.0, vr = 0.0;
+        if (Bilinear(smooth, p.x() + 1.5 * left.x(), p.y() + 1.5 * left.y(), &vl) &&
+            Bilinear(smooth, p.x() - 1.5 * left.x(), p.y() - 1.5 * left.y(), &vr))
+          sum += vl - vr;
       }
       if (sum < 0.0) std::swap(a, b);
     }
