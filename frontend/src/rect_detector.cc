@@ -716,11 +716,33 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       }
       const Quad& outer = q.area > k.area ? q : k;
       const Quad& inner = q.area > k.area ? k : q;
+      // "Inside" with a margin: shared corners lie on the outer outline, not strictly inside it.
+      const double dup_tol = std::max(2.0, o.duplicate_corner_frac * small_side);
+      const Vec2 centre = 0.25 * (outer.c[0] + outer.c[1] + outer.c[2] + outer.c[3]);
+      Corners grown;
+      for (int i = 0; i < 4; ++i) {
+        const Vec2 r = outer.c[i] - centre;
+        grown[i] = outer.c[i] + dup_tol * r / std::max(r.norm(), 1e-9);
+      }
       bool inside = true;
-      for (const Vec2& p : inner.c) inside = inside && InsideConvex(outer.c, p);
-      if (inside && d <= o.nest_corner_frac * ShortestSide(outer.c)) {
+      for (const Vec2& p : inner.c) inside = inside && InsideConvex(grown, p);
+      if (!inside) continue;
+      if (d <= o.nest_corner_frac * ShortestSide(outer.c)) {
         if (&outer == &q) k = q;  // the new one is the outer outline: it replaces the kept inner one
         drop = true;
+        break;
+      }
+      // Alternatives for one object: nested quads sharing two adjacent corners differ only in which
+      // parallel line closes them (a board's top edge or the row of tags below it): best score wins.
+      int shift = 0;
+      CornerDistanceBestShift(q.c, k.c, &shift);
+      int shared_adjacent = 0;
+      for (int i = 0; i < 4; ++i)
+        shared_adjacent = std::max(
+            shared_adjacent, static_cast<int>((q.c[i] - k.c[(i + shift) % 4]).norm() <= dup_tol &&
+                                              (q.c[(i + 1) % 4] - k.c[(i + 1 + shift) % 4]).norm() <= dup_tol));
+      if (shared_adjacent) {
+        drop = true;  // k scores at least as high (processing in score order)
         break;
       }
     }
@@ -747,12 +769,17 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       QuadStats(smooth, det.corners_px, 0.8, &in_mean, &in_std);
       QuadStats(smooth, det.corners_px, 1.25, &out_mean, &out_std);
       const double h_over_w = 1.0 / q.aspect_w_h;
+      //  - door: tall (metric h/w 1.7..3.2), not strongly textured;
+      //  - poster: strongly textured interior (grey-level std > 30: print, pattern, board);
+      //  - window: much brighter than its surroundings (> 30 grey levels: daylight) and not textured;
+      //  - cabinet is never guessed from one image (a cabinet front looks like a wall panel);
+      //  - otherwise unknown.
       if (h_over_w >= 1.7 && h_over_w <= 3.2 && in_std < 40.0) {
         det.object_class = ObjectClass::kDoor;
-      } else if (out_mean >= 0.0 && in_mean - out_mean > 30.0 && h_over_w >= 0.5 && h_over_w <= 2.5) {
-        det.object_class = ObjectClass::kWindow;
-      } else if (in_std > 30.0 && h_over_w >= 0.5 && h_over_w <= 2.0) {
+      } else if (in_std > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) {
         det.object_class = ObjectClass::kPoster;
+      } else if (out_mean >= 0.0 && in_mean - out_mean > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) {
+        det.object_class = ObjectClass::kWindow;
       }
     }
     res.detections.push_back(det);

@@ -21,8 +21,10 @@
 // Nesting rule (a window frame and its pane, a thick door frame's two outlines): when quad B lies inside
 // quad A and every corner of B is within `nest_corner_frac` x (A's shortest side) of A's matching corner,
 // B is the inner outline of the same object and is dropped: the OUTER outline is reported (the object's
-// full extent). Rectangles inside others that are not concentric in that sense (a poster on a door, the
-// tags on a calibration board, windows on a facade) are kept as objects of their own.
+// full extent). When nested quads share two adjacent corners (a board and the quad closed by the row
+// of tags below its top edge; a window and its lower pane) they are alternatives for one object and
+// the better-scoring one is kept. Other rectangles inside rectangles (a poster on a door, the tags on
+// a calibration board, windows on a facade) are kept as objects of their own.
 //
 // Pixel thresholds are either relative (a fraction of a segment's length or of the image diagonal) or
 // tied to the edge profile (fractions of a pixel); none is tuned to one camera.
