@@ -69,8 +69,10 @@ class Trajectory {
   static Trajectory FromWaypoints(const std::vector<Waypoint>& waypoints,
                                   const TrajectoryOptions& options = TrajectoryOptions());
   // Poses (e.g. a TUM file), shifted so the first is at t = 0, smoothed and resampled into waypoints
-  // (position and yaw of the body x axis). Roll and pitch are not taken from the file: they follow the
-  // flight model. Throws InputError as above, or when the poses span less than two knots.
+  // (position and yaw of the body x axis) every pose_knot_s. Roll and pitch are not taken from the file:
+  // they follow the flight model. Like any waypoint trajectory it starts and ends at rest (the first and
+  // last knot interval ease in and out). Throws InputError as above, or when the poses span less than
+  // two knots.
   static Trajectory FromPoses(const std::vector<StampedPose>& poses,
                               const TrajectoryOptions& options = TrajectoryOptions());
 
