@@ -11,5 +11,7 @@ void AddInfoCommand(CLI::App& root);
 void AddRenderCommand(CLI::App& root);
 void AddEvalCommand(CLI::App& root);
 void AddDetectCommand(CLI::App& root);
+void AddRunCommand(CLI::App& root);
+void AddBenchCommand(CLI::App& root);
 
 }  // namespace fsp::apps

@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
   fsp::apps::AddRenderCommand(app);
   fsp::apps::AddEvalCommand(app);
   fsp::apps::AddDetectCommand(app);
+  fsp::apps::AddRunCommand(app);
+  fsp::apps::AddBenchCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,122 @@
+#include "gt_corners.h"
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <nlohmann/json.hpp>
+
+#include "fsp/common/error.h"
+
+namespace fsp::apps {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// id -> class from objects_gt.json ({"objects": [{"id", "class", ...}]}).
+std::map<int, ObjectClass> ReadObjectClasses(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, 0, "cannot open");
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(path, 0, std::string("not valid JSON: ") + e.what());
+  }
+  if (!j.is_object() || !j.contains("objects") || !j["objects"].is_array())
+    throw InputError(path, 0, "expected {\"objects\": [...]}");
+  std::map<int, ObjectClass> classes;
+  int index = 0;
+  for (const auto& o : j["objects"]) {
+    const std::string where = "objects[" + std::to_string(index++) + "]";
+    if (!o.is_object() || !o.contains("id") || !o["id"].is_number_integer())
+      throw InputError(path, 0, where + ": missing integer \"id\"");
+    const int id = o["id"].get<int>();
+    ObjectClass c = ObjectClass::kUnknown;
+    if (o.contains("class")) {
+      if (!o["class"].is_string() || !ParseObjectClass(o["class"].get<std::string>(), &c))
+        throw InputError(path, 0, where + " (id " + std::to_string(id) + "): unknown class " + o["class"].dump());
+    }
+    if (!classes.emplace(id, c).second) throw InputError(path, 0, "object id " + std::to_string(id) + " repeated");
+  }
+  return classes;
+}
+
+std::string RequireFile(const fs::path& root, const char* name) {
+  const fs::path p = root / name;
+  if (!fs::is_regular_file(p))
+    throw InputError("gt-corners needs a rendered sequence: " + p.string() + " not found");
+  return p.string();
+}
+
+}  // namespace
+
+std::string SequenceRootOf(const std::string& input) {
+  const fs::path p(input);
+  if (fs::is_directory(p)) {
+    if (!fs::exists(p / "observations_gt.csv") && p.filename() == "mav0" && p.has_parent_path())
+      return p.parent_path().string();
+    if (!fs::exists(p / "observations_gt.csv") && p.filename().empty() && p.parent_path().filename() == "mav0")
+      return p.parent_path().parent_path().string();  // "DIR/mav0/"
+    return p.string();
+  }
+  return p.has_parent_path() ? p.parent_path().string() : ".";
+}
+
+GtCornersFrontend::GtCornersFrontend(const std::string& input, const GtCornersOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw InputError(why);
+  const fs::path root = SequenceRootOf(input);
+  observations_path_ = RequireFile(root, "observations_gt.csv");
+  const std::string objects_path = RequireFile(root, "objects_gt.json");
+  const std::vector<CornerRow> rows = ReadCornerRows(observations_path_);
+  const std::map<int, ObjectClass> classes = ReadObjectClasses(objects_path);
+
+  // Corner noise: u_j += σ n, v_j += σ n', n ~ N(0, 1), drawn in file order (u1, v1, ..., v4 per row).
+  std::mt19937 rng(options.seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  stats_.rows = static_cast<int>(rows.size());
+  for (const CornerRow& row : rows) {
+    if (!row.fully_visible) {
+      ++stats_.rows_not_visible;
+      continue;
+    }
+    const auto cls = classes.find(row.object_id);
+    if (cls == classes.end()) {
+      throw InputError(observations_path_, 0,
+                       "object " + std::to_string(row.object_id) + " is not in " + objects_path);
+    }
+    ObjectObservation obs;
+    obs.t_ns = row.t_ns;
+    obs.object_id = row.object_id;
+    obs.object_class = cls->second;
+    obs.corners = row.corners;
+    if (options.pixel_sigma > 0.0) {
+      for (Vec2& c : obs.corners) {
+        c.x() += options.pixel_sigma * normal(rng);
+        c.y() += options.pixel_sigma * normal(rng);
+      }
+    }
+    by_time_[row.t_ns].push_back(obs);
+  }
+}
+
+std::vector<ObjectObservation> GtCornersFrontend::Process(int64_t t_ns) {
+  const auto it = by_time_.find(t_ns);
+  if (it == by_time_.end()) return {};
+  ++stats_.frames_matched;
+  stats_.observations += static_cast<int>(it->second.size());
+  return it->second;
+}
+
+CornerRow ToCornerRow(const ObjectObservation& observation) {
+  CornerRow row;
+  row.t_ns = observation.t_ns;
+  row.object_id = observation.object_id;
+  row.corners = observation.corners;
+  row.fully_visible = true;
+  return row;
+}
+
+}  // namespace fsp::apps

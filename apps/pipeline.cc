@@ -1,0 +1,161 @@
+#include "pipeline.h"
+
+#include <chrono>
+#include <filesystem>
+#include <thread>
+
+#include "fsp/common/error.h"
+#include "fsp/common/observations_io.h"
+#include "fsp/common/progress.h"
+#include "fsp/common/time.h"
+#include "fsp/common/trajectory_io.h"
+#include "gt_corners.h"
+
+namespace fsp::apps {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// Paces measurements at the recorded rate: measurement time t is due at wall time
+// start + (t − t_first).
+class Pacer {
+ public:
+  explicit Pacer(int64_t t_first_ns) : t_first_ns_(t_first_ns), start_(Clock::now()) {}
+  Clock::time_point Due(int64_t t_ns) const {
+    return start_ + std::chrono::nanoseconds(t_ns - t_first_ns_);
+  }
+  void WaitFor(int64_t t_ns) const { std::this_thread::sleep_until(Due(t_ns)); }
+
+ private:
+  int64_t t_first_ns_;
+  Clock::time_point start_;
+};
+
+}  // namespace
+
+const char* ModeName(backend::EstimatorMode mode) {
+  return mode == backend::EstimatorMode::kBatch ? "batch" : "window";
+}
+const char* LandmarkName(backend::LandmarkType landmarks) {
+  return landmarks == backend::LandmarkType::kFhp ? "fhp" : "fsp";
+}
+
+RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
+  if (request.frontend != "gt-corners") {
+    throw InputError("--frontend " + request.frontend + ": not available yet (use gt-corners)");
+  }
+  std::string why;
+  if (!config.estimator.Check(&why)) throw InputError((config.source.empty() ? "config" : config.source) + ": " + why);
+
+  namespace fs = std::filesystem;
+  if (!fs::exists(request.source.input)) throw InputError(request.source.input + ": INPUT not found");
+  const Clock::time_point wall_start = Clock::now();
+  SourceOptions source_options = request.source;
+  source_options.decode_images = false;  // gt-corners needs no pixels
+  // The front end first: a missing observations_gt.csv is the likelier mistake and its message the clearer.
+  GtCornersFrontend frontend(request.source.input, config.gt_corners);
+  std::unique_ptr<Source> source = OpenSource(source_options);
+
+  Calibration calibration = source->calibration();
+  calibration.imu = config.imu.Apply(calibration.imu);
+  if (!calibration.Check(&why)) throw InputError((config.source.empty() ? "config" : config.source) + ": " + why);
+  backend::EstimatorOptions options = config.estimator;
+  options.imu.noise = calibration.imu;
+
+  std::error_code ec;
+  fs::create_directories(request.out_dir, ec);
+  if (ec || !fs::is_directory(request.out_dir))
+    throw InputError(request.out_dir + ": cannot create the output folder");
+
+  RunReport report;
+  report.input = request.source.input;
+  report.frontend = request.frontend;
+  report.mode = ModeName(options.mode);
+  report.landmarks = LandmarkName(options.landmarks);
+  report.config = config.source;
+  report.realtime = request.realtime;
+  report.seed = config.gt_corners.seed;
+  report.pixel_sigma = config.gt_corners.pixel_sigma;
+  const std::vector<int64_t>& frame_times = source->frame_times();
+  report.frames = static_cast<int>(frame_times.size());
+  if (frame_times.size() >= 2) report.duration_s = NsToSeconds(frame_times.back() - frame_times.front());
+
+  backend::Estimator estimator(calibration, options);
+  std::vector<double> frontend_ms, backend_ms;
+  std::vector<CornerRow> produced;
+  const int64_t frame_period_ns =
+      frame_times.size() >= 2 ? (frame_times.back() - frame_times.front()) / static_cast<int64_t>(frame_times.size() - 1)
+                              : 0;
+  std::optional<Pacer> pacer;
+  if (request.realtime) {
+    const int64_t t_first = std::min(frame_times.empty() ? 0 : frame_times.front(),
+                                     source->imu().empty() ? frame_times.front() : source->imu().front().t_ns);
+    pacer.emplace(t_first);
+  }
+  std::unique_ptr<Progress> progress;
+  if (request.progress) progress = std::make_unique<Progress>("run", report.frames);
+  int frames_seen = 0;
+  while (std::optional<Measurement> m = source->Next()) {
+    if (const ImuSample* imu = std::get_if<ImuSample>(&*m)) {
+      if (pacer) pacer->WaitFor(imu->t_ns);
+      estimator.AddImu(*imu);
+      ++report.imu_samples;
+      continue;
+    }
+    const Frame& frame = std::get<Frame>(*m);
+    ++frames_seen;
+    if (pacer) {
+      // A live camera has the next frame ready by Due(t + period): a frame still unprocessed then is lost.
+      if (Clock::now() > pacer->Due(frame.t_ns + frame_period_ns)) {
+        ++report.frames_dropped;
+        if (progress) progress->Update(frames_seen);
+        continue;
+      }
+      pacer->WaitFor(frame.t_ns);
+    }
+    Clock::time_point t0 = Clock::now();
+    const std::vector<ObjectObservation> observations = frontend.Process(frame.t_ns);
+    frontend_ms.push_back(MsSince(t0));
+    for (const ObjectObservation& o : observations) produced.push_back(ToCornerRow(o));
+    report.observations += static_cast<int>(observations.size());
+
+    t0 = Clock::now();
+    estimator.AddFrame(frame.t_ns, observations);
+    backend_ms.push_back(MsSince(t0));
+    ++report.frames_processed;
+    if (progress) progress->Update(frames_seen);
+    if (!estimator.summary().init_failure.empty()) break;  // nothing more can happen
+  }
+  const Clock::time_point t_finish = Clock::now();
+  estimator.Finish();
+  report.finish_ms = MsSince(t_finish);
+  progress.reset();  // ends the bar's line before anything else is printed
+  report.wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
+
+  if (frontend.stats().rows > 0 && frontend.stats().frames_matched == 0 && report.frames_processed > 0) {
+    throw InputError(frontend.observations_path() +
+                     ": no row's t_ns matches a frame time of the input (a different sequence?)");
+  }
+
+  report.summary = estimator.summary();
+  report.keyframes = report.summary.keyframes;
+  report.frontend_ms = ComputeStageStats(frontend_ms);
+  report.backend_ms = ComputeStageStats(backend_ms);
+  report.realtime_factor = report.wall_s > 0.0 ? report.duration_s / report.wall_s : 0.0;
+
+  const fs::path out(request.out_dir);
+  const std::vector<backend::MapObject> map = estimator.Map();
+  report.objects = static_cast<int>(map.size());
+  WriteTum(estimator.Trajectory(), (out / "trajectory.tum").string());
+  WriteJson(MapToJson(map), (out / "map.json").string());
+  WriteCornerRows(produced, (out / "observations.csv").string(), /*with_flag=*/false);
+  WriteJson(RunReportToJson(report), (out / "run.json").string());
+  return report;
+}
+
+}  // namespace fsp::apps

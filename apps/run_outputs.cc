@@ -1,0 +1,112 @@
+#include "run_outputs.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+
+#include "fsp/common/error.h"
+
+namespace fsp::apps {
+
+namespace {
+
+// Quantile q in [0, 1] of sorted values: linear interpolation between the order statistics at
+// positions floor(q (n-1)) and ceil(q (n-1)) (numpy's default).
+double Quantile(const std::vector<double>& sorted, double q) {
+  if (sorted.empty()) return 0.0;
+  const double pos = q * static_cast<double>(sorted.size() - 1);
+  const size_t lo = static_cast<size_t>(std::floor(pos));
+  const size_t hi = std::min(lo + 1, sorted.size() - 1);
+  const double frac = pos - static_cast<double>(lo);
+  return sorted[lo] + frac * (sorted[hi] - sorted[lo]);
+}
+
+nlohmann::ordered_json StatsJson(const StageStats& s) {
+  return {{"median", s.median}, {"p90", s.p90}, {"mean", s.mean}, {"max", s.max}, {"count", s.count}};
+}
+
+}  // namespace
+
+StageStats ComputeStageStats(std::vector<double> ms) {
+  StageStats s;
+  s.count = static_cast<int>(ms.size());
+  if (ms.empty()) return s;
+  std::sort(ms.begin(), ms.end());
+  s.median = Quantile(ms, 0.5);
+  s.p90 = Quantile(ms, 0.9);
+  double sum = 0.0;
+  for (double v : ms) sum += v;
+  s.mean = sum / static_cast<double>(ms.size());
+  s.max = ms.back();
+  return s;
+}
+
+nlohmann::ordered_json MapToJson(const std::vector<backend::MapObject>& objects) {
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  for (const backend::MapObject& o : objects) {
+    nlohmann::ordered_json j;
+    j["id"] = o.id;
+    j["class"] = ToString(o.object_class);
+    nlohmann::ordered_json corners = nlohmann::ordered_json::array();
+    for (const Vec3& c : o.corners_W) corners.push_back({c.x(), c.y(), c.z()});
+    j["corners_W"] = corners;
+    j["width"] = o.width;
+    j["height"] = o.height;
+    j["width_sigma"] = o.width_sigma >= 0.0 ? nlohmann::ordered_json(o.width_sigma) : nlohmann::ordered_json();
+    j["height_sigma"] = o.height_sigma >= 0.0 ? nlohmann::ordered_json(o.height_sigma) : nlohmann::ordered_json();
+    const Mat4 M = o.T_W_O.Matrix();
+    nlohmann::ordered_json t = nlohmann::ordered_json::array();
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) t.push_back(M(r, c));
+    j["T_W_O"] = t;
+    j["observations"] = o.observations;
+    list.push_back(j);
+  }
+  nlohmann::ordered_json root;
+  root["objects"] = list;
+  return root;
+}
+
+nlohmann::ordered_json RunReportToJson(const RunReport& r) {
+  nlohmann::ordered_json j;
+  j["frames"] = r.frames;
+  j["keyframes"] = r.keyframes;
+  j["objects"] = r.objects;
+  j["wall_s"] = r.wall_s;
+  j["realtime_factor"] = r.realtime_factor;
+  j["stage_ms"] = {{"frontend", StatsJson(r.frontend_ms)}, {"backend", StatsJson(r.backend_ms)},
+                   {"finish", r.finish_ms}};
+  j["duration_s"] = r.duration_s;
+  j["frames_processed"] = r.frames_processed;
+  j["frames_dropped"] = r.frames_dropped;
+  j["imu_samples"] = r.imu_samples;
+  j["observations"] = r.observations;
+  j["input"] = r.input;
+  j["frontend"] = r.frontend;
+  j["mode"] = r.mode;
+  j["landmarks"] = r.landmarks;
+  j["realtime"] = r.realtime;
+  j["seed"] = r.seed;
+  j["pixel_sigma"] = r.pixel_sigma;
+  j["config"] = r.config.empty() ? "defaults" : r.config;
+  const backend::EstimatorSummary& s = r.summary;
+  j["estimator"] = {{"initialized", s.initialized},
+                    {"init_failure", s.init_failure},
+                    {"observations_used", s.observations_used},
+                    {"observations_rejected", s.observations_rejected},
+                    {"reanchors", s.reanchors},
+                    {"marginalizations", s.marginalizations},
+                    {"marginalization_failures", s.marginalization_failures},
+                    {"batch_solve_ms", s.batch_solve_ms},
+                    {"final_cost", s.final_cost}};
+  return j;
+}
+
+void WriteJson(const nlohmann::ordered_json& json, const std::string& path) {
+  std::ofstream out(path);
+  if (!out) throw InputError(path, 0, "cannot write");
+  out << json.dump(2) << "\n";
+  if (!out) throw InputError(path, 0, "write failed");
+}
+
+}  // namespace fsp::apps

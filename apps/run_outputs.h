@@ -1,0 +1,55 @@
+// Writers of a run's output folder (CONTRACT.md "Run output"): map.json and run.json, plus the timing
+// statistics they report. trajectory.tum and observations.csv use the common writers (WriteTum,
+// WriteCornerRows).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "fsp/backend/estimator.h"
+
+namespace fsp::apps {
+
+// Median and 90th percentile of a list of durations [ms] (linear interpolation between order
+// statistics; 0 for an empty list).
+struct StageStats {
+  double median = 0.0;
+  double p90 = 0.0;
+  double mean = 0.0;
+  double max = 0.0;
+  int count = 0;
+};
+StageStats ComputeStageStats(std::vector<double> ms);
+
+// What a run measured, for run.json and the summary line.
+struct RunReport {
+  int frames = 0;            // frames read from the input
+  int frames_processed = 0;  // frames given to the estimator
+  int frames_dropped = 0;    // --realtime: frames the pipeline could not keep up with
+  int imu_samples = 0;
+  int keyframes = 0;
+  int objects = 0;           // objects in map.json
+  int observations = 0;      // object observations produced by the front end (processed frames)
+  double duration_s = 0.0;   // sequence span, first to last frame [s]
+  double wall_s = 0.0;       // wall time of reading + front end + back end + finish [s]
+  double realtime_factor = 0.0;  // duration_s / wall_s
+  double finish_ms = 0.0;    // Estimator::Finish (final window solve or the batch solve) [ms]
+  StageStats frontend_ms, backend_ms;  // per processed frame
+  std::string input, frontend, mode, landmarks, config;
+  bool realtime = false;
+  uint32_t seed = 0;
+  double pixel_sigma = 0.0;
+  backend::EstimatorSummary summary;
+};
+
+// {"objects": [{"id", "class", "corners_W", "width", "height", "width_sigma", "height_sigma", "T_W_O" (16,
+// row-major), "observations"}]}; an unknown σ (negative) is written as null.
+nlohmann::ordered_json MapToJson(const std::vector<backend::MapObject>& objects);
+nlohmann::ordered_json RunReportToJson(const RunReport& report);
+
+// Writes JSON to PATH (2-space indent); throws InputError when PATH cannot be written.
+void WriteJson(const nlohmann::ordered_json& json, const std::string& path);
+
+}  // namespace fsp::apps

@@ -1,0 +1,168 @@
+// The gt-corners front end on a tiny hand-written sequence folder: exact corners at σ = 0, the same
+// noise for the same seed, invisible rows dropped, clear errors.
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "common/dataset_fixtures.h"
+#include "fsp/common/error.h"
+#include "fsp/common/observations_io.h"
+#include "gt_corners.h"
+#include "test_util.h"
+
+namespace fsp::apps {
+namespace {
+
+namespace fs = std::filesystem;
+using test::ErrorOf;
+using test::WriteText;
+
+// Corners of object ID in frame K (distinct per object and frame).
+Corners TrueCorners(int id, int k) {
+  const double u0 = 5.0 + id + 0.25 * k, v0 = 18.0 - 0.5 * k;
+  return {Vec2(u0, v0), Vec2(u0 + 10.5, v0), Vec2(u0 + 10.5, v0 - 8.25), Vec2(u0, v0 - 8.25)};
+}
+
+// A EuRoC folder with 4 frames, objects 1 (door) and 2 (tag) seen in every frame; object 2 is not fully
+// visible in frame 2. Returns the frame times.
+std::vector<int64_t> MakeSequence(const fs::path& dir) {
+  const std::vector<int64_t> t = test::MakeEuroc(dir, 4);
+  std::vector<CornerRow> rows;
+  for (int k = 0; k < 4; ++k) {
+    for (int id : {1, 2}) {
+      CornerRow r;
+      r.t_ns = t[k];
+      r.object_id = id;
+      r.corners = TrueCorners(id, k);
+      r.fully_visible = !(id == 2 && k == 2);
+      rows.push_back(r);
+    }
+  }
+  WriteCornerRows(rows, (dir / "observations_gt.csv").string(), /*with_flag=*/true);
+  WriteText(dir / "objects_gt.json",
+            R"({"objects": [{"id": 1, "class": "door", "width": 0.9, "height": 2.0},
+                            {"id": 2, "class": "tag", "width": 0.16, "height": 0.16}]})");
+  return t;
+}
+
+GtCornersOptions Sigma(double sigma, uint32_t seed = 1) {
+  GtCornersOptions o;
+  o.pixel_sigma = sigma;
+  o.seed = seed;
+  return o;
+}
+
+TEST(GtCorners, NoiseFreeGivesTheExactCornersAndClasses) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = MakeSequence(dir);
+  GtCornersFrontend fe(dir.string(), Sigma(0.0));
+  for (int k = 0; k < 4; ++k) {
+    const std::vector<ObjectObservation> obs = fe.Process(t[k]);
+    ASSERT_EQ(obs.size(), k == 2 ? 1u : 2u) << "frame " << k;
+    for (const ObjectObservation& o : obs) {
+      EXPECT_EQ(o.t_ns, t[k]);
+      EXPECT_EQ(o.object_class, o.object_id == 1 ? ObjectClass::kDoor : ObjectClass::kTag);
+      const Corners truth = TrueCorners(o.object_id, k);
+      for (int j = 0; j < 4; ++j) EXPECT_EQ(o.corners[j], truth[j]) << "object " << o.object_id << " corner " << j;
+    }
+  }
+  EXPECT_TRUE(fe.Process(t[3] + 1).empty());  // a time without rows
+  EXPECT_EQ(fe.stats().rows, 8);
+  EXPECT_EQ(fe.stats().rows_not_visible, 1);
+  EXPECT_EQ(fe.stats().observations, 7);
+  EXPECT_EQ(fe.stats().frames_matched, 4);
+}
+
+TEST(GtCorners, NotFullyVisibleRowsAreDropped) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = MakeSequence(dir);
+  GtCornersFrontend fe(dir.string(), Sigma(1.0));
+  const std::vector<ObjectObservation> obs = fe.Process(t[2]);
+  ASSERT_EQ(obs.size(), 1u);
+  EXPECT_EQ(obs[0].object_id, 1);
+}
+
+TEST(GtCorners, SameSeedSameNoiseOtherSeedOtherNoise) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = MakeSequence(dir);
+  GtCornersFrontend a(dir.string(), Sigma(1.0, 7)), b(dir.string(), Sigma(1.0, 7)), c(dir.string(), Sigma(1.0, 8));
+  double sum_sq = 0.0;
+  int n = 0;
+  for (int k = 0; k < 4; ++k) {
+    const auto oa = a.Process(t[k]), ob = b.Process(t[k]), oc = c.Process(t[k]);
+    ASSERT_EQ(oa.size(), ob.size());
+    ASSERT_EQ(oa.size(), oc.size());
+    for (size_t i = 0; i < oa.size(); ++i) {
+      const Corners truth = TrueCorners(oa[i].object_id, k);
+      for (int j = 0; j < 4; ++j) {
+        EXPECT_EQ(oa[i].corners[j], ob[i].corners[j]);  // bit-identical
+        EXPECT_NE(oa[i].corners[j], oc[i].corners[j]);
+        const Vec2 d = oa[i].corners[j] - truth[j];
+        EXPECT_LT(d.cwiseAbs().maxCoeff(), 5.0);  // 5 σ
+        sum_sq += d.squaredNorm();
+        n += 2;
+      }
+    }
+  }
+  // 56 draws of N(0, 1): the sample std lies in [0.7, 1.3] with probability > 0.999 (fixed seed anyway).
+  const double std_px = std::sqrt(sum_sq / n);
+  EXPECT_GT(std_px, 0.7);
+  EXPECT_LT(std_px, 1.3);
+}
+
+TEST(GtCorners, NoiseDoesNotDependOnWhichFramesAreProcessed) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = MakeSequence(dir);
+  GtCornersFrontend all(dir.string(), Sigma(1.0)), some(dir.string(), Sigma(1.0));
+  for (int k = 0; k < 3; ++k) all.Process(t[k]);
+  const auto a = all.Process(t[3]), s = some.Process(t[3]);  // `some` skipped frames 0..2
+  ASSERT_EQ(a.size(), s.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].corners[0], s[i].corners[0]);
+}
+
+TEST(GtCorners, FindsTheSequenceFromMav0) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = MakeSequence(dir);
+  EXPECT_EQ(fs::path(SequenceRootOf((dir / "mav0").string())), dir);
+  GtCornersFrontend fe((dir / "mav0").string(), Sigma(0.0));
+  EXPECT_EQ(fe.Process(t[0]).size(), 2u);
+}
+
+TEST(GtCorners, ClearErrors) {
+  const fs::path dir = test::ScratchDir();
+  test::MakeEuroc(dir, 2);
+  std::string e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
+  EXPECT_NE(e.find("gt-corners needs a rendered sequence"), std::string::npos) << e;
+  EXPECT_NE(e.find("observations_gt.csv not found"), std::string::npos) << e;
+
+  MakeSequence(dir);
+  fs::remove(dir / "objects_gt.json");
+  e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
+  EXPECT_NE(e.find("objects_gt.json not found"), std::string::npos) << e;
+
+  WriteText(dir / "objects_gt.json", R"({"objects": [{"id": 1, "class": "door"}]})");
+  e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
+  EXPECT_NE(e.find("object 2 is not in"), std::string::npos) << e;
+
+  WriteText(dir / "objects_gt.json", R"({"objects": [{"id": 1, "class": "sofa"}, {"id": 2, "class": "tag"}]})");
+  e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
+  EXPECT_NE(e.find("unknown class \"sofa\""), std::string::npos) << e;
+
+  WriteText(dir / "objects_gt.json", R"({"objects": )");
+  e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
+  EXPECT_NE(e.find("not valid JSON"), std::string::npos) << e;
+
+  WriteText(dir / "objects_gt.json", R"({"objects": [{"id": 1, "class": "door"}, {"id": 2, "class": "tag"}]})");
+  WriteText(dir / "observations_gt.csv", "0,1,1,2,3,4,5,6,7,8,1\n0,1,1,2,3,4,5,6,7\n");
+  e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
+  EXPECT_NE(e.find("observations_gt.csv:2"), std::string::npos) << e;
+
+  e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(-1.0)); });
+  EXPECT_NE(e.find("pixel_sigma"), std::string::npos) << e;
+}
+
+}  // namespace
+}  // namespace fsp::apps

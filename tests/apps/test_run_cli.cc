@@ -1,0 +1,98 @@
+// `fsp run` and `fsp bench` on bad input: a non-zero exit and one clear line on stderr.
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "bench_gate.h"
+#include "common/dataset_fixtures.h"
+#include "fsp/common/error.h"
+#include "test_util.h"
+
+namespace fsp::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Exactly one line on stderr that starts with "fsp: error: " and contains WHAT.
+void ExpectOneLineError(const test::CommandResult& r, const std::string& what) {
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(r.err.rfind("fsp: error: ", 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
+}
+
+TEST(RunCli, MissingInput) {
+  const fs::path dir = test::ScratchDir();
+  ExpectOneLineError(test::RunFsp("run " + (dir / "nope").string() + " --out " + (dir / "out").string()),
+                     "nope");
+}
+
+TEST(RunCli, GtCornersNeedsARenderedSequence) {
+  const fs::path dir = test::ScratchDir();
+  test::MakeEuroc(dir / "seq", 3);
+  ExpectOneLineError(test::RunFsp("run " + (dir / "seq").string() + " --frontend gt-corners --out " +
+                                  (dir / "out").string()),
+                     "gt-corners needs a rendered sequence: " + (dir / "seq" / "observations_gt.csv").string() +
+                         " not found");
+}
+
+TEST(RunCli, BadConfig) {
+  const fs::path dir = test::ScratchDir();
+  test::MakeEuroc(dir / "seq", 3);
+  test::WriteText(dir / "bad.yaml", "estimator:\n  window_size: -3\n");
+  ExpectOneLineError(test::RunFsp("run " + (dir / "seq").string() + " --config " + (dir / "bad.yaml").string() +
+                                  " --out " + (dir / "out").string()),
+                     "bad.yaml:2: estimator.window_size: must be >= 2, got -3");
+  test::WriteText(dir / "unknown.yaml", "frontend:\n  gt_corners:\n    sigma: 2\n");
+  ExpectOneLineError(test::RunFsp("run " + (dir / "seq").string() + " --config " +
+                                  (dir / "unknown.yaml").string() + " --out " + (dir / "out").string()),
+                     "unknown.yaml:3: frontend.gt_corners.sigma: unknown key");
+  ExpectOneLineError(test::RunFsp("run " + (dir / "seq").string() + " --config " + (dir / "none.yaml").string() +
+                                  " --out " + (dir / "out").string()),
+                     "none.yaml");
+}
+
+TEST(RunCli, PrintConfigShowsTheDefaults) {
+  const test::CommandResult r = test::RunFsp("run --print-config");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("  window_size: 20\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("    pixel_sigma: 1.0\n"), std::string::npos) << r.out;
+}
+
+TEST(BenchGate, ChecksBoundsAndTargets) {
+  const fs::path dir = test::ScratchDir();
+  test::WriteText(dir / "t.yaml",
+                  "checks:\n"
+                  "  - {config: a, metric: err, max: 0.1, target: 0.01, enforced: true}\n"
+                  "  - {config: a, metric: speed, min: 5, target: 10, enforced: true}\n"
+                  "  - {config: b, metric: err, max: 0.1, enforced: false}\n");
+  const std::vector<GateCheck> checks = ReadGate((dir / "t.yaml").string());
+  ASSERT_EQ(checks.size(), 3u);
+  EXPECT_EQ(checks[1].line, 3);
+  nlohmann::ordered_json rows = {{"a", {{"err", 0.05}, {"speed", 7.0}}}, {"b", {{"err", 0.5}}}};
+  std::vector<GateResult> r = EvaluateGate(checks, rows);
+  EXPECT_TRUE(r[0].pass);
+  EXPECT_FALSE(*r[0].target_met);
+  EXPECT_TRUE(r[1].pass);
+  EXPECT_FALSE(r[2].pass);  // outside, but not enforced
+  EXPECT_TRUE(GatePasses(r));
+  rows["a"]["speed"] = 4.0;
+  EXPECT_FALSE(GatePasses(EvaluateGate(checks, rows)));
+  rows["a"].erase("err");  // a missing metric fails an enforced check
+  r = EvaluateGate(checks, rows);
+  EXPECT_FALSE(r[0].value.has_value());
+  EXPECT_FALSE(r[0].pass);
+
+  test::WriteText(dir / "bad.yaml", "checks:\n  - {config: a, metric: err, maximum: 0.1}\n");
+  const std::string e = test::ErrorOf([&] { ReadGate((dir / "bad.yaml").string()); });
+  EXPECT_NE(e.find("bad.yaml:2: unknown key 'maximum'"), std::string::npos) << e;
+}
+
+TEST(BenchGate, RepositoryThresholdsParse) {
+  const std::vector<GateCheck> checks = ReadGate(std::string(FSP_SOURCE_DIR) + "/assets/bench/thresholds.yaml");
+  EXPECT_GE(checks.size(), 8u);
+}
+
+}  // namespace
+}  // namespace fsp::apps
