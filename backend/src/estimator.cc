@@ -1,0 +1,618 @@
+#include "fsp/backend/estimator.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <optional>
+#include <sstream>
+#include <unordered_map>
+
+#include <ceres/ceres.h>
+
+#include "fsp/backend/fhp_factor.h"
+#include "fsp/backend/imu_factor.h"
+#include "fsp/backend/manifolds.h"
+#include "fsp/backend/marginalization.h"
+#include "fsp/backend/priors.h"
+#include "fsp/backend/reanchor.h"
+#include "fsp/backend/static_init.h"
+#include "fsp/common/error.h"
+
+namespace fsp::backend {
+
+bool EstimatorOptions::Check(std::string* why) const {
+  std::ostringstream os;
+  std::string sub;
+  if (window_size < 2) os << "window_size must be >= 2 (got " << window_size << ")";
+  else if (window_max_iterations < 1 || batch_max_iterations < 1) os << "iterations must be >= 1";
+  else if (!factor.Check(&sub)) os << "factor: " << sub;
+  else if (!robust.Check(&sub)) os << "robust: " << sub;
+  else if (!imu.Check(&sub)) os << "imu: " << sub;
+  else if (!init.Check(&sub)) os << "init: " << sub;
+  else if (!static_init.Check(&sub)) os << "static_init: " << sub;
+  else if (!(prior_gyro_bias_sigma > 0.0) || !(prior_acc_bias_sigma > 0.0) || !(prior_log_omega_sigma > 0.0))
+    os << "prior sigmas must be > 0";
+  else if (min_observations < 1) os << "min_observations must be >= 1";
+  if (why) *why = os.str();
+  return os.str().empty();
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+struct Keyframe {
+  int index = 0;
+  KeyframeState state;
+  // Preintegrated IMU from the previous keyframe (null for the first keyframe).
+  std::shared_ptr<ImuPreintegration> preint;
+  std::vector<ObjectObservation> observations;
+};
+
+struct Object {
+  int id = -1;
+  ObjectClass object_class = ObjectClass::kUnknown;
+  Keyframe* anchor = nullptr;  // F = camera frame of this keyframe
+  FspLandmark fsp;
+  FhpLandmark fhp;
+  double width_prior_m = 1.0;
+  int observations = 0;
+  // Observations from keyframes that left the window (pose constant), newest last, capped.
+  struct PastView {
+    Keyframe* keyframe;
+    Corners corners;
+  };
+  std::deque<PastView> past;
+};
+
+}  // namespace
+
+struct Estimator::Impl {
+  Impl(const Calibration& calib, const EstimatorOptions& opts) : calibration(calib), options(opts) {
+    K = calibration.camera.K();
+    T_B_C = calibration.T_B_C;
+    options.imu.noise = calibration.imu;
+  }
+
+  Calibration calibration;
+  EstimatorOptions options;
+  Mat3 K;
+  Rigid3 T_B_C;
+  EstimatorSummary summary;
+
+  std::vector<ImuSample> imu;                 // all samples (pruned behind the oldest needed time)
+  std::vector<std::pair<int64_t, std::vector<ObjectObservation>>> pending;  // frames before init
+  std::deque<std::unique_ptr<Keyframe>> keyframes;  // every keyframe (window = the last window_size)
+  std::map<int, std::unique_ptr<Object>> objects;
+  std::vector<StateSample> output;            // per keyframe, the state reported for it
+  size_t window_begin = 0;                     // index of the oldest keyframe in the window
+  Rigid3 T_W_B0;                               // gauge prior of the first keyframe
+  Eigen::Matrix<double, 9, 1> sb0 = Eigen::Matrix<double, 9, 1>::Zero();
+  std::shared_ptr<const LinearPrior> prior;  // from the marginalised keyframes
+  bool finished = false;
+
+  PoseManifold pose_manifold;
+  ceres::EigenQuaternionManifold quat_manifold;
+
+  // --- IMU -------------------------------------------------------------------------------------
+  std::vector<ImuSample> ImuBetween(int64_t t0, int64_t t1) const {
+    // One sample before t0 and one after t1 so the preintegration can interpolate the boundaries.
+    auto lo = std::lower_bound(imu.begin(), imu.end(), t0,
+                               [](const ImuSample& s, int64_t t) { return s.t_ns < t; });
+    if (lo != imu.begin()) --lo;
+    auto hi = std::upper_bound(imu.begin(), imu.end(), t1,
+                               [](int64_t t, const ImuSample& s) { return t < s.t_ns; });
+    if (hi != imu.end()) ++hi;
+    return std::vector<ImuSample>(lo, hi);
+  }
+
+  // --- Initialisation ----------------------------------------------------------------------------
+  // Returns true once initialised; false while waiting for IMU or after a refusal.
+  bool TryInitialize() {
+    if (summary.initialized) return true;
+    if (!summary.init_failure.empty() || pending.empty()) return false;
+    const int64_t t0 = pending.front().first;
+    const int64_t t1 = t0 + static_cast<int64_t>(options.static_init.window_s * 1e9);
+    if (imu.empty() || imu.back().t_ns < t1) return false;  // wait for the whole still interval
+    StaticInitOptions so = options.static_init;
+    so.gravity = options.imu.gravity;
+    const StaticInitSummary s = StaticInitialize(ImuBetween(t0, t1), so, t0);
+    if (!s.success) {
+      summary.init_failure = s.reason;
+      return false;
+    }
+    summary.initialized = true;
+    KeyframeState first;
+    first.t_ns = t0;
+    first.SetT_W_B(Rigid3(s.state.T_W_B.rotation(), Vec3::Zero()));
+    GyroBiasOf(first.speed_bias) = s.state.gyro_bias;
+    T_W_B0 = first.T_W_B();
+    sb0.segment<3>(3) = s.state.gyro_bias;
+    auto frames = std::move(pending);
+    pending.clear();
+    bool first_frame = true;
+    for (auto& [t_ns, obs] : frames) {
+      if (first_frame) {
+        AddKeyframe(t_ns, std::move(obs), &first);
+        first_frame = false;
+      } else {
+        AddKeyframe(t_ns, std::move(obs), nullptr);
+      }
+    }
+    return true;
+  }
+
+  // --- Keyframes ---------------------------------------------------------------------------------
+  void AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs, const KeyframeState* initial) {
+    const auto t_start = Clock::now();
+    auto kf = std::make_unique<Keyframe>();
+    kf->index = static_cast<int>(keyframes.size());
+    if (initial) {
+      kf->state = *initial;
+    } else {
+      const Keyframe& prev = *keyframes.back();
+      kf->preint = std::make_shared<ImuPreintegration>(options.imu, ImuBetween(prev.state.t_ns, t_ns),
+                                                       prev.state.t_ns, t_ns, prev.state.gyro_bias(),
+                                                       prev.state.acc_bias());
+      Rigid3 T_W_Bj;
+      Vec3 v_j;
+      kf->preint->Predict(prev.state.T_W_B(), prev.state.v_W(), prev.state.gyro_bias(), prev.state.acc_bias(),
+                          &T_W_Bj, &v_j);
+      kf->state.SetT_W_B(T_W_Bj);
+      std::copy(prev.state.speed_bias, prev.state.speed_bias + kSpeedBiasSize, kf->state.speed_bias);
+      VelocityOf(kf->state.speed_bias) = v_j;
+    }
+    kf->state.t_ns = t_ns;
+    kf->observations = std::move(obs);
+    keyframes.push_back(std::move(kf));
+    output.push_back(keyframes.back()->state.ToStateSample());
+    ++summary.keyframes;
+
+    InitializeNewObjects(keyframes.back().get());
+    for (const ObjectObservation& o : keyframes.back()->observations) {
+      auto it = objects.find(o.object_id);
+      if (it != objects.end()) ++it->second->observations;
+    }
+    if (options.mode == EstimatorMode::kWindow) {
+      SolveWindow(options.window_max_iterations);
+      while (static_cast<int>(keyframes.size() - window_begin) > options.window_size) MarginalizeOldest();
+    } else if (keyframes.size() % static_cast<size_t>(options.batch_solve_every) == 0) {
+      // Batch: the whole problem so far (window_begin stays 0), re-solved every few frames so the
+      // initial values of the final solve stay close to the optimum.
+      SolveWindow(options.window_max_iterations);
+    }
+    PruneImu();
+    summary.backend_ms.push_back(MsSince(t_start));
+  }
+
+  void PruneImu() {
+    const int64_t keep_from = keyframes[window_begin]->state.t_ns;
+    if (options.mode == EstimatorMode::kBatch) return;  // batch re-integrates nothing, but keep all
+    auto it = std::lower_bound(imu.begin(), imu.end(), keep_from,
+                               [](const ImuSample& s, int64_t t) { return s.t_ns < t; });
+    if (it - imu.begin() > 4000) imu.erase(imu.begin(), it - 2);
+  }
+
+  Rigid3 CameraPose(const Keyframe& kf) const { return kf.state.T_W_B() * T_B_C; }
+
+  // Single-view initialisation of objects seen for the first time in `kf`, anchored at it.
+  void InitializeNewObjects(Keyframe* kf) {
+    const Rigid3 T_W_C = CameraPose(*kf);
+    const Vec3 up_C = T_W_C.rotation().conjugate() * Vec3::UnitZ();
+    for (const ObjectObservation& o : kf->observations) {
+      if (objects.count(o.object_id)) continue;
+      const bool vertical = o.object_class == ObjectClass::kDoor || o.object_class == ObjectClass::kWindow ||
+                            o.object_class == ObjectClass::kCabinet || o.object_class == ObjectClass::kPoster;
+      const SingleViewInitSummary s = InitializeFspSingleView(
+          o.corners, K, o.object_class, options.init, vertical ? std::optional<Vec3>(up_C) : std::nullopt);
+      if (!s.success()) {
+        ++summary.observations_rejected;
+        continue;
+      }
+      auto obj = std::make_unique<Object>();
+      obj->id = o.object_id;
+      obj->object_class = o.object_class;
+      obj->anchor = kf;
+      obj->fsp = s.landmark;
+      obj->fhp = FhpLandmark::FromFsp(s.landmark);
+      obj->width_prior_m = s.landmark.Width();
+      objects[o.object_id] = std::move(obj);
+    }
+  }
+
+  // --- Problem construction -----------------------------------------------------------------------
+  // Adds the factor(s) of one observation of `obj` from keyframe `kf`. Poses of keyframes that are not
+  // variables of this problem (`is_variable` false: they left the window) enter as constants.
+  template <typename IsVariable>
+  void AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj, const Corners& corners,
+                      const IsVariable& is_variable) {
+    for (Keyframe* k : {kf, obj->anchor}) {
+      if (is_variable(k) || problem->HasParameterBlock(k->state.pose)) continue;
+      problem->AddParameterBlock(k->state.pose, kPoseSize, &pose_manifold);
+      problem->SetParameterBlockConstant(k->state.pose);
+    }
+    const Rigid3 T_W_C = CameraPose(*kf);
+    const Rigid3 T_W_F = CameraPose(*obj->anchor);
+    const bool at_anchor = obj->anchor == kf;
+    if (options.landmarks == LandmarkType::kFsp) {
+      if (!PredictFspCorners(K, T_W_C, T_W_F, obj->fsp).in_front) {
+        ++summary.observations_rejected;
+        return;
+      }
+      ceres::LossFunction* loss = MakeRobustLoss(options.robust, 8).release();
+      if (at_anchor) {
+        problem->AddResidualBlock(new FspAnchorFactor(corners, K, options.factor), loss, obj->fsp.q_F_O, obj->fsp.x);
+      } else {
+        problem->AddResidualBlock(new FspFactor(corners, K, T_B_C, options.factor), loss, kf->state.pose,
+                                  obj->anchor->state.pose, obj->fsp.q_F_O, obj->fsp.x);
+      }
+      problem->SetManifold(obj->fsp.q_F_O, &quat_manifold);
+    } else {
+      if (!PredictFhpCorners(K, T_W_C, T_W_F, obj->fhp).in_front) {
+        ++summary.observations_rejected;
+        return;
+      }
+      for (int j = 0; j < 4; ++j) {
+        ceres::LossFunction* loss = MakeRobustLoss(options.robust, 2).release();
+        if (at_anchor) {
+          problem->AddResidualBlock(new FhpAnchorFactor(corners[j], K, options.factor), loss, obj->fhp.corner[j]);
+        } else {
+          problem->AddResidualBlock(new FhpFactor(corners[j], K, T_B_C, options.factor), loss, kf->state.pose,
+                                    obj->anchor->state.pose, obj->fhp.corner[j]);
+        }
+      }
+    }
+  }
+
+  // Observation factors of keyframes [begin, end) and, for every object they see, its past views.
+  void AddVisualFactors(ceres::Problem* problem, size_t begin, size_t end) {
+    const int first_index = keyframes[begin]->index;
+    auto is_variable = [first_index](const Keyframe* k) { return k->index >= first_index; };
+    std::vector<Object*> seen;
+    for (size_t i = begin; i < end; ++i) {
+      Keyframe* kf = keyframes[i].get();
+      for (const ObjectObservation& o : kf->observations) {
+        auto it = objects.find(o.object_id);
+        if (it == objects.end()) continue;
+        AddObservation(problem, kf, it->second.get(), o.corners, is_variable);
+        seen.push_back(it->second.get());
+      }
+    }
+    std::sort(seen.begin(), seen.end(), [](const Object* a, const Object* b) { return a->id < b->id; });
+    seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+    for (Object* obj : seen)
+      for (const auto& view : obj->past) AddObservation(problem, view.keyframe, obj, view.corners, is_variable);
+  }
+
+  void AddStateBlocks(ceres::Problem* problem, Keyframe* kf) {
+    problem->AddParameterBlock(kf->state.pose, kPoseSize, &pose_manifold);
+    problem->AddParameterBlock(kf->state.speed_bias, kSpeedBiasSize);
+  }
+
+  void AddImuFactor(ceres::Problem* problem, Keyframe* prev, Keyframe* kf) {
+    kf->preint->ReintegrateIfNeeded(prev->state.gyro_bias(), prev->state.acc_bias());
+    problem->AddResidualBlock(new ImuFactor(kf->preint), nullptr, prev->state.pose, prev->state.speed_bias,
+                              kf->state.pose, kf->state.speed_bias);
+  }
+
+  void AddGaugePriors(ceres::Problem* problem, Keyframe* first) {
+    // Position and yaw pinned (gauge); roll/pitch as well known as the static start gives them.
+    problem->AddResidualBlock(new PosePrior(T_W_B0, 1e-3, 0.02, 1e-3), nullptr, first->state.pose);
+    problem->AddResidualBlock(MakeBiasPrior(), nullptr, first->state.speed_bias);
+  }
+
+  void AddObjectPriors(ceres::Problem* problem) {
+    if (options.landmarks != LandmarkType::kFsp) return;
+    for (auto& [id, obj] : objects) {
+      if (!problem->HasParameterBlock(obj->fsp.x)) continue;
+      problem->AddResidualBlock(new LogWidthPrior(obj->width_prior_m, options.prior_log_omega_sigma), nullptr,
+                                obj->fsp.x);
+    }
+  }
+
+  ceres::Problem::Options ProblemOptions() const {
+    ceres::Problem::Options po;
+    po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    po.enable_fast_removal = false;
+    return po;
+  }
+
+  ceres::Solver::Options SolverOptions(int max_iterations) const {
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    so.max_num_iterations = max_iterations;
+    so.num_threads = 1;
+    so.minimizer_progress_to_stdout = false;
+    so.logging_type = ceres::SILENT;
+    so.function_tolerance = 1e-8;
+    so.parameter_tolerance = 1e-10;
+    return so;
+  }
+
+  void SolveWindow(int max_iterations) {
+    ceres::Problem problem(ProblemOptions());
+    const size_t n = keyframes.size();
+    for (size_t i = window_begin; i < n; ++i) AddStateBlocks(&problem, keyframes[i].get());
+    for (size_t i = window_begin + 1; i < n; ++i) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
+    if (window_begin == 0) AddGaugePriors(&problem, keyframes[0].get());
+    if (prior) {
+      problem.AddResidualBlock(new MarginalizationPriorFactor(prior), nullptr, prior->blocks);
+      for (size_t b = 0; b < prior->blocks.size(); ++b)
+        if (prior->manifolds[b]) problem.SetManifold(prior->blocks[b], const_cast<ceres::Manifold*>(prior->manifolds[b]));
+    }
+    AddVisualFactors(&problem, window_begin, n);
+    AddObjectPriors(&problem);
+    ceres::Solver::Summary s;
+    ceres::Solve(SolverOptions(max_iterations), &problem, &s);
+    summary.final_cost = s.final_cost;
+    for (size_t i = window_begin; i < n; ++i) output[keyframes[i]->index] = keyframes[i]->state.ToStateSample();
+  }
+
+  // --- Marginalisation ------------------------------------------------------------------------------
+  // Moves the anchor of every object anchored at `old` to the newest window keyframe with s1 in front.
+  void ReanchorObjectsOf(Keyframe* old) {
+    const size_t n = keyframes.size();
+    for (auto& [id, obj] : objects) {
+      if (obj->anchor != old) continue;
+      const Rigid3 T_W_F = CameraPose(*old);
+      for (size_t i = n; i-- > window_begin + 1;) {
+        Keyframe* cand = keyframes[i].get();
+        const Rigid3 T_W_Fnew = CameraPose(*cand);
+        FspLandmark fsp_new;
+        FhpLandmark fhp_new;
+        const bool ok = options.landmarks == LandmarkType::kFsp ? ReanchorFsp(obj->fsp, T_W_F, T_W_Fnew, &fsp_new)
+                                                                : ReanchorFhp(obj->fhp, T_W_F, T_W_Fnew, &fhp_new);
+        if (!ok) continue;
+        if (options.landmarks == LandmarkType::kFsp) obj->fsp = fsp_new;
+        else obj->fhp = fhp_new;
+        obj->anchor = cand;
+
+        ++summary.reanchors;
+        break;
+      }
+    }
+  }
+
+  // Landmark parameter blocks of an object (FSP: q_F_O, x; FHP: one block per corner).
+  std::vector<double*> LandmarkBlocks(Object* obj) {
+    if (options.landmarks == LandmarkType::kFsp) return {obj->fsp.q_F_O, obj->fsp.x};
+    return {obj->fhp.corner[0], obj->fhp.corner[1], obj->fhp.corner[2], obj->fhp.corner[3]};
+  }
+  int BlockSize(const Object* obj, const double* block) const {
+    if (options.landmarks == LandmarkType::kFhp) return 3;
+    return block == obj->fsp.q_F_O ? 4 : 5;
+  }
+  const ceres::Manifold* ManifoldOf(Object* obj, const double* block) const {
+    return options.landmarks == LandmarkType::kFsp && block == obj->fsp.q_F_O ? &quat_manifold : nullptr;
+  }
+
+  void MarginalizeOldest() {
+    Keyframe* old = keyframes[window_begin].get();
+    Keyframe* next = keyframes[window_begin + 1].get();
+    ReanchorObjectsOf(old);
+    // Objects that could not be re-anchored (s1 behind every window camera) keep their anchor: their
+    // information from the window leaves with the keyframe and they are frozen.
+
+    // Every factor that touches the old keyframe's state, linearised at the current estimate.
+    std::vector<std::unique_ptr<ceres::CostFunction>> costs;
+    std::vector<std::unique_ptr<ceres::LossFunction>> losses;
+    std::vector<ResidualBlockInput> inputs;
+    std::unordered_map<const double*, const ceres::Manifold*> manifolds;
+    auto add = [&](ceres::CostFunction* cost, std::unique_ptr<ceres::LossFunction> loss,
+                   std::vector<double*> blocks) {
+      costs.emplace_back(cost);
+      inputs.push_back({cost, loss.get(), std::move(blocks)});
+      losses.push_back(std::move(loss));
+    };
+    manifolds[old->state.pose] = &pose_manifold;
+    manifolds[next->state.pose] = &pose_manifold;
+    next->preint->ReintegrateIfNeeded(old->state.gyro_bias(), old->state.acc_bias());
+    add(new ImuFactor(next->preint), nullptr,
+        {old->state.pose, old->state.speed_bias, next->state.pose, next->state.speed_bias});
+    if (window_begin == 0) {
+      add(new PosePrior(T_W_B0, 1e-3, 0.02, 1e-3), nullptr, {old->state.pose});
+      add(MakeBiasPrior(), nullptr, {old->state.speed_bias});
+    }
+    if (prior) {
+      for (size_t b = 0; b < prior->blocks.size(); ++b) manifolds[prior->blocks[b]] = prior->manifolds[b];
+      add(new MarginalizationPriorFactor(prior), nullptr, prior->blocks);
+    }
+    const MarginalizationSummary ms =
+        Marginalize(inputs, {old->state.pose, old->state.speed_bias}, manifolds, MarginalizationOptions());
+    if (ms.success) {
+      prior = ms.prior;
+    } else {
+      prior.reset();  // information lost, but the window stays solvable (gauge prior below)
+      ++summary.marginalization_failures;
+    }
+    // The old keyframe's observations stay as factors with its pose held constant (past views).
+    for (const ObjectObservation& o : old->observations) {
+      auto it = objects.find(o.object_id);
+      if (it == objects.end()) continue;
+      auto& past = it->second->past;
+      past.push_back({old, o.corners});
+      if (static_cast<int>(past.size()) > options.max_past_views) past.pop_front();
+    }
+    output[old->index] = old->state.ToStateSample();
+    ++window_begin;
+    ++summary.marginalizations;
+  }
+
+  ceres::CostFunction* MakeBiasPrior() const {
+    Eigen::Matrix<double, 9, 1> sigma;
+    sigma << Vec3::Constant(0.01), Vec3::Constant(options.prior_gyro_bias_sigma),
+        Vec3::Constant(options.prior_acc_bias_sigma);
+    return new SpeedBiasPrior(sb0, sigma);
+  }
+
+  // --- Batch ---------------------------------------------------------------------------------------
+  void SolveBatch() {
+    const auto t0 = Clock::now();
+    ceres::Problem problem(ProblemOptions());
+    for (auto& kf : keyframes) AddStateBlocks(&problem, kf.get());
+    for (size_t i = 1; i < keyframes.size(); ++i) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
+    AddGaugePriors(&problem, keyframes[0].get());
+    for (auto& kf : keyframes) {
+      for (const ObjectObservation& o : kf->observations) {
+        auto it = objects.find(o.object_id);
+        if (it != objects.end()) AddObservation(&problem, kf.get(), it->second.get(), o.corners, [](const Keyframe*) { return true; });
+      }
+    }
+    AddObjectPriors(&problem);
+    ceres::Solver::Options so = SolverOptions(options.batch_max_iterations);
+    ceres::Solver::Summary s;
+    ceres::Solve(so, &problem, &s);
+    summary.final_cost = s.final_cost;
+    summary.batch_solve_ms = MsSince(t0);
+    for (auto& kf : keyframes) output[kf->index] = kf->state.ToStateSample();
+    ComputeSigmas(&problem);
+  }
+
+  // --- Map covariance -----------------------------------------------------------------------------
+  std::map<int, std::pair<double, double>> sigmas;  // id -> (σ_w, σ_h)
+
+  void ComputeSigmas(ceres::Problem* problem) {
+    sigmas.clear();
+    if (options.landmarks != LandmarkType::kFsp) return;
+    ceres::Covariance::Options co;
+    co.algorithm_type = ceres::SPARSE_QR;
+    co.num_threads = 1;
+    ceres::Covariance covariance(co);
+    std::vector<std::pair<const double*, const double*>> blocks;
+    for (auto& [id, obj] : objects)
+      if (problem->HasParameterBlock(obj->fsp.x)) blocks.emplace_back(obj->fsp.x, obj->fsp.x);
+    if (blocks.empty() || !covariance.Compute(blocks, problem)) return;
+    for (auto& [id, obj] : objects) {
+      if (!problem->HasParameterBlock(obj->fsp.x)) continue;
+      double c[25];
+      covariance.GetCovarianceBlock(obj->fsp.x, obj->fsp.x, c);
+      Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
+      // log w = log w̄ − log ω;  log h = log w̄ − log f − log ω;  σ_w = w σ_log w.
+      Eigen::Matrix<double, 1, 5> jw = Eigen::Matrix<double, 1, 5>::Zero(), jh = jw;
+      jw[kFspLogWbar] = 1.0;
+      jw[kFspLogOmega] = -1.0;
+      jh = jw;
+      jh[kFspLogForm] = -1.0;
+      const double sw = obj->fsp.Width() * std::sqrt(std::max(0.0, (jw * C * jw.transpose())(0)));
+      const double sh = obj->fsp.Height() * std::sqrt(std::max(0.0, (jh * C * jh.transpose())(0)));
+      sigmas[id] = {sw, sh};
+    }
+  }
+
+  void FinishWindow() {
+    if (keyframes.empty()) return;
+    ceres::Problem problem(ProblemOptions());
+    const size_t n = keyframes.size();
+    for (size_t i = window_begin; i < n; ++i) AddStateBlocks(&problem, keyframes[i].get());
+    for (size_t i = window_begin + 1; i < n; ++i) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
+    if (window_begin == 0) AddGaugePriors(&problem, keyframes[0].get());
+    if (prior) {
+      problem.AddResidualBlock(new MarginalizationPriorFactor(prior), nullptr, prior->blocks);
+      for (size_t b = 0; b < prior->blocks.size(); ++b)
+        if (prior->manifolds[b]) problem.SetManifold(prior->blocks[b], const_cast<ceres::Manifold*>(prior->manifolds[b]));
+    }
+    AddVisualFactors(&problem, window_begin, n);
+    AddObjectPriors(&problem);
+    ceres::Solver::Summary s;
+    ceres::Solve(SolverOptions(options.window_max_iterations * 3), &problem, &s);
+    summary.final_cost = s.final_cost;
+    for (size_t i = window_begin; i < n; ++i) output[keyframes[i]->index] = keyframes[i]->state.ToStateSample();
+    ComputeSigmas(&problem);
+  }
+};
+
+Estimator::Estimator(const Calibration& calibration, const EstimatorOptions& options)
+    : impl_(std::make_unique<Impl>(calibration, options)) {
+  std::string why;
+  if (!options.Check(&why)) throw std::invalid_argument("estimator options: " + why);
+}
+
+Estimator::~Estimator() = default;
+
+void Estimator::AddImu(const ImuSample& sample) {
+  if (!impl_->imu.empty() && sample.t_ns <= impl_->imu.back().t_ns) {
+    throw InputError("IMU sample at t_ns " + std::to_string(sample.t_ns) + " is not after the previous one");
+  }
+  impl_->imu.push_back(sample);
+}
+
+bool Estimator::AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& observations) {
+  Impl& d = *impl_;
+  ++d.summary.frames;
+  for (const auto& o : observations) {
+    (void)o;
+  }
+  if (!d.summary.initialized) {
+    if (!d.summary.init_failure.empty()) return false;
+    d.pending.emplace_back(t_ns, observations);
+    return d.TryInitialize();
+  }
+  d.AddKeyframe(t_ns, observations, nullptr);
+  return true;
+}
+
+void Estimator::Finish() {
+  Impl& d = *impl_;
+  if (d.finished) return;
+  d.finished = true;
+  if (!d.summary.initialized && d.summary.init_failure.empty() && !d.pending.empty()) {
+    d.summary.init_failure = "the sequence ended before the static initialisation interval (" +
+                             std::to_string(d.options.static_init.window_s) + " s of IMU after the first frame)";
+  }
+  if (!d.summary.initialized) return;
+  if (d.options.mode == EstimatorMode::kBatch) {
+    d.SolveBatch();
+  } else {
+    d.FinishWindow();
+  }
+}
+
+std::vector<StateSample> Estimator::States() const { return impl_->output; }
+
+std::vector<StampedPose> Estimator::Trajectory() const {
+  std::vector<StampedPose> poses;
+  poses.reserve(impl_->output.size());
+  for (const StateSample& s : impl_->output) poses.push_back({s.t_ns, s.T_W_B});
+  return poses;
+}
+
+std::vector<MapObject> Estimator::Map() const {
+  const Impl& d = *impl_;
+  std::vector<MapObject> map;
+  for (const auto& [id, obj] : d.objects) {
+    int n = 0;
+    for (const auto& kf : d.keyframes)
+      for (const auto& o : kf->observations) n += o.object_id == id ? 1 : 0;
+    if (n < d.options.min_observations) continue;
+    MapObject m;
+    m.id = id;
+    m.object_class = obj->object_class;
+    m.observations = n;
+    const Rigid3 T_W_F = d.CameraPose(*obj->anchor);
+    if (d.options.landmarks == LandmarkType::kFsp) {
+      m.corners_W = obj->fsp.CornersW(T_W_F);
+      m.width = obj->fsp.Width();
+      m.height = obj->fsp.Height();
+      m.T_W_O = obj->fsp.T_W_O(T_W_F);
+    } else {
+      m.corners_W = obj->fhp.CornersW(T_W_F);
+      m.width = obj->fhp.Width();
+      m.height = obj->fhp.Height();
+      m.T_W_O = obj->fhp.T_W_O(T_W_F);
+    }
+    auto it = d.sigmas.find(id);
+    m.width_sigma = it == d.sigmas.end() ? -1.0 : it->second.first;
+    m.height_sigma = it == d.sigmas.end() ? -1.0 : it->second.second;
+    map.push_back(m);
+  }
+  return map;
+}
+
+const EstimatorSummary& Estimator::summary() const { return impl_->summary; }
+
+}  // namespace fsp::backend
