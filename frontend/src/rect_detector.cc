@@ -672,6 +672,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       }
     }
   res.hypotheses = static_cast<int>(quads.size());
+  for (const Quad& q : quads) res.hypothesis_quads.push_back(q.c);
   res.times.Add("group", sw.Lap());
 
   // 4. refinement (with a cheap rectangle pre-test at twice the tolerance on the hypothesis corners).
@@ -700,6 +701,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     q.area = std::abs(SignedArea(q.c));
     good.push_back(q);
   }
+  for (const Quad& q : good) res.verified_quads.emplace_back(q.c, q.score);
   res.times.Add("verify", sw.Lap());
 
   // 6. suppression: duplicates keep the best score, concentric nesting keeps the outer outline.
@@ -726,9 +728,20 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       }
       bool inside = true;
       for (const Vec2& p : inner.c) inside = inside && InsideConvex(grown, p);
-      if (!inside) continue;
-      if (d <= o.nest_corner_frac * ShortestSide(outer.c)) {
-        if (&outer == &q) k = q;  // the new one is the outer outline: it replaces the kept inner one
+      const bool concentric = d <= o.nest_corner_frac * ShortestSide(outer.c);
+      if (!inside) {
+        // Near-concentric but crossing (the left side from one outline, the right from the other):
+        // another variant of the same object; the kept one scores at least as high.
+        if (concentric) {
+          drop = true;
+          break;
+        }
+        continue;
+      }
+      if (concentric) {
+        // The new one is the outer outline: it replaces the kept inner one unless clearly worse
+        // supported (a box's side face seen at an angle gives a weaker outer edge than its front).
+        if (&outer == &q && q.score >= k.score - o.nest_score_margin) k = q;
         drop = true;
         break;
       }
@@ -748,7 +761,10 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     }
     if (!drop) kept.push_back(q);
   }
-  // Replacing may have created duplicates among kept ones; remove exact repeats.
+  // Replacing may have created duplicates among kept ones; remove exact repeats. (A second pass that
+  // drops every quad nested in a kept outer one was tried: on the rendered default room it lowered
+  // precision from 0.57 to 0.52, because the rendered tags' ground truth is the black square inside
+  // the white margin, and on the EuRoC board it picked the board's side face.)
   std::vector<Quad> unique;
   for (const Quad& q : kept) {
     bool dup = false;

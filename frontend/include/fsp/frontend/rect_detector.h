@@ -21,9 +21,11 @@
 // Nesting rule (a window frame and its pane, a thick door frame's two outlines): when quad B lies inside
 // quad A and every corner of B is within `nest_corner_frac` x (A's shortest side) of A's matching corner,
 // B is the inner outline of the same object and is dropped: the OUTER outline is reported (the object's
-// full extent). When nested quads share two adjacent corners (a board and the quad closed by the row
+// full extent), unless its edge support is clearly lower (`nest_score_margin`). When nested quads
+// share two adjacent corners (a board and the quad closed by the row
 // of tags below its top edge; a window and its lower pane) they are alternatives for one object and
-// the better-scoring one is kept. Other rectangles inside rectangles (a poster on a door, the tags on
+// the better-scoring one is kept; so are near-concentric quads that cross (one side from each of two
+// parallel outlines). Other rectangles inside rectangles (a poster on a door, the tags on
 // a calibration board, windows on a facade) are kept as objects of their own.
 //
 // Pixel thresholds are either relative (a fraction of a segment's length or of the image diagonal) or
@@ -122,9 +124,12 @@ struct RectDetectorOptions {
 
   // --- 6. suppression ---
   // Duplicates: largest corner distance [fraction of the shorter shortest side, min 2 px].
-  double duplicate_corner_frac = 0.1;
+  double duplicate_corner_frac = 0.03;
   // Nesting (see above): corner distance [fraction of the outer quad's shortest side].
   double nest_corner_frac = 0.25;
+  // ...but an outer outline whose score is lower than the inner one's by more than this keeps the
+  // inner one (the side face of a thick board or box seen at an angle is not part of the rectangle).
+  double nest_score_margin = 0.05;
   // At most this many detections, best score first (0: no limit).
   int max_detections = 0;
 
@@ -143,6 +148,8 @@ class RectDetector {
     std::vector<std::pair<Vec2, Vec2>> segment_ends;  // merged segments (undistorted px), for debugging
     int hypotheses = 0;                 // quads from grouping
     int refined = 0;                    // quads that survived refinement
+    std::vector<Corners> hypothesis_quads;  // grouping's quads (undistorted px), for debugging
+    std::vector<std::pair<Corners, double>> verified_quads;  // before suppression, with score
     double canny_low = 0.0, canny_high = 0.0;  // thresholds used (Sobel magnitude units)
   };
 
