@@ -3,6 +3,7 @@
 // markdown table for the README); then checks the accuracy gate (assets/bench/thresholds.yaml) and exits
 // non-zero when an enforced bound is crossed.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -118,6 +119,7 @@ Json RunVariant(const Variant& v, const std::string& sequence, const fs::path& r
   }
   row["frames"] = r.frames;
   row["keyframes"] = r.keyframes;
+  row["objects_non_finite"] = r.objects_non_finite_ids.size();
   row["backend_ms_median"] = r.backend_ms.median;
   row["backend_ms_p90"] = r.backend_ms.p90;
   row["finish_ms"] = r.finish_ms;
@@ -130,7 +132,12 @@ Json RunVariant(const Variant& v, const std::string& sequence, const fs::path& r
 std::string Cell(const Json& row, const char* key, double scale, int decimals) {
   if (!row.contains(key) || !row[key].is_number()) return "-";
   char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", decimals, row[key].get<double>() * scale);
+  const double v = row[key].get<double>() * scale;
+  if (std::abs(v) >= 1e5) {
+    std::snprintf(buf, sizeof(buf), "%.1e", v);  // a diverged run: keep the table readable
+  } else {
+    std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
+  }
   return buf;
 }
 

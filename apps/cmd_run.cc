@@ -47,6 +47,12 @@ void Run(const RunArgs& args) {
               r.landmarks.c_str(), r.mode.c_str(), r.frontend.c_str(), r.pixel_sigma, r.seed);
   std::printf("  frames %d (%d processed, %d dropped), keyframes %d, observations %d, objects in map %d\n",
               r.frames, r.frames_processed, r.frames_dropped, r.keyframes, r.observations, r.objects);
+  if (!r.objects_non_finite_ids.empty()) {
+    std::printf("  warning: %zu objects had non-finite estimates and were left out of map.json (ids:",
+                r.objects_non_finite_ids.size());
+    for (int id : r.objects_non_finite_ids) std::printf(" %d", id);
+    std::printf(")\n");
+  }
   std::printf("  back end per frame: median %.2f ms, p90 %.2f ms; finish %.1f ms\n", r.backend_ms.median,
               r.backend_ms.p90, r.finish_ms);
   std::printf("  %.2f s of data in %.2f s wall: %.1fx real time\n", r.duration_s, r.wall_s, r.realtime_factor);

@@ -1,6 +1,7 @@
 #include "pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <thread>
 
@@ -149,7 +150,18 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   report.realtime_factor = report.wall_s > 0.0 ? report.duration_s / report.wall_s : 0.0;
 
   const fs::path out(request.out_dir);
-  const std::vector<backend::MapObject> map = estimator.Map();
+  // map.json holds finite numbers only: an object whose estimate is not finite (a back-end failure) is
+  // left out and counted.
+  std::vector<backend::MapObject> map;
+  for (const backend::MapObject& o : estimator.Map()) {
+    bool finite = std::isfinite(o.width) && std::isfinite(o.height) && o.T_W_O.Matrix().allFinite();
+    for (const Vec3& c : o.corners_W) finite = finite && c.allFinite();
+    if (finite) {
+      map.push_back(o);
+    } else {
+      report.objects_non_finite_ids.push_back(o.id);
+    }
+  }
   report.objects = static_cast<int>(map.size());
   WriteTum(estimator.Trajectory(), (out / "trajectory.tum").string());
   WriteJson(MapToJson(map), (out / "map.json").string());

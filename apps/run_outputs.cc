@@ -81,6 +81,7 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
   j["frames_dropped"] = r.frames_dropped;
   j["imu_samples"] = r.imu_samples;
   j["observations"] = r.observations;
+  j["objects_non_finite"] = r.objects_non_finite_ids;
   j["input"] = r.input;
   j["frontend"] = r.frontend;
   j["mode"] = r.mode;

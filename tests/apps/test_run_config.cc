@@ -60,6 +60,18 @@ TEST(RunConfig, DefaultYamlListsEveryKeyOnce) {
   for (const std::string& k : in_file) EXPECT_TRUE(known.count(k)) << k << " in default.yaml is not a key";
 }
 
+// A tripwire, not a law: the config table (apps/run_config.cc Fields) lists the Options fields by hand.
+// When an Options struct grows, this fails: add the new field to Fields() and to default.yaml, then
+// update the size here.
+TEST(RunConfig, OptionsStructsHaveTheFieldsTheConfigKnows) {
+  EXPECT_EQ(sizeof(backend::EstimatorOptions), 304u) << "EstimatorOptions changed";
+  EXPECT_EQ(sizeof(backend::FspFactorOptions), 16u) << "FspFactorOptions changed";
+  EXPECT_EQ(sizeof(backend::RobustLossOptions), 16u) << "RobustLossOptions changed";
+  EXPECT_EQ(sizeof(backend::PreintegrationOptions), 64u) << "PreintegrationOptions changed";
+  EXPECT_EQ(sizeof(backend::SingleViewInitOptions), 96u) << "SingleViewInitOptions changed";
+  EXPECT_EQ(sizeof(backend::StaticInitOptions), 56u) << "StaticInitOptions changed";
+}
+
 TEST(RunConfig, ValuesAreApplied) {
   const RunConfig c = ParseRunConfig(
       "estimator:\n  window_size: 7\n  mode: batch\n  landmarks: fhp\n  robust: {type: cauchy, k_sigma: 3}\n"
