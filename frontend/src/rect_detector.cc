@@ -178,8 +178,9 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
   std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(), [&](int i, int j) { return theta[i] < theta[j]; });
   const double tol = angle_deg * M_PI / 180.0;
+  const double cos_tol = std::cos(tol);
   auto compatible = [&](const Seg& s, const Seg& t) {
-    if (s.dir.dot(t.dir) < std::cos(tol)) return false;  // same polarity only (see orientation above)
+    if (s.dir.dot(t.dir) < cos_tol) return false;  // same polarity only (see orientation above)
     const Seg& lng = s.len >= t.len ? s : t;
     const Seg& sht = s.len >= t.len ? t : s;
     const Line l = LineOf(lng);
@@ -193,8 +194,8 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
   // A smoothly bending edge (bent paper, residual distortion) splits into pieces that are not collinear
   // within line_px but continue each other: the end of one touches the start of the next.
   auto continues = [&](const Seg& s, const Seg& t) {
-    if (s.dir.dot(t.dir) < std::cos(tol)) return false;
-    return (s.b - t.a).norm() <= line_px || (t.b - s.a).norm() <= line_px;
+    if (s.dir.dot(t.dir) < cos_tol) return false;
+    return (s.b - t.a).squaredNorm() <= line_px * line_px || (t.b - s.a).squaredNorm() <= line_px * line_px;
   };
   for (int oi = 0; oi < n; ++oi) {
     const int i = order[oi];
@@ -637,9 +638,9 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       // Cheap rejection: the nearest endpoints must be within reach of both junction tolerances.
       const double reach = (o.junction_gap_frac + o.junction_overshoot_frac) * (segs[i].len + segs[j].len) +
                            2.0 * o.junction_slack_px;
-      const double dmin = std::min({(segs[i].a - segs[j].a).norm(), (segs[i].a - segs[j].b).norm(),
-                                    (segs[i].b - segs[j].a).norm(), (segs[i].b - segs[j].b).norm()});
-      if (dmin > reach) continue;
+      const double dmin2 = std::min({(segs[i].a - segs[j].a).squaredNorm(), (segs[i].a - segs[j].b).squaredNorm(),
+                                     (segs[i].b - segs[j].a).squaredNorm(), (segs[i].b - segs[j].b).squaredNorm()});
+      if (dmin2 > reach * reach) continue;
       Vec2 x;
       if (!Intersect(seg_lines[i], seg_lines[j], &x)) continue;
       const int ei = JunctionEnd(segs[i], x, o);

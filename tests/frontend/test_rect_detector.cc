@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "fsp/common/calibration.h"
 #include "fsp/frontend/detection_eval.h"
 #include "fsp/frontend/rect_detector.h"
 #include "fsp/frontend/rect_geometry.h"
@@ -195,6 +196,38 @@ TEST(RectDetector, DISABLED_WriteGolden) {
     for (const auto& c : fr.rects[i].corners) out << "," << c.x() << "," << c.y();
     out << "\n";
   }
+}
+
+}  // namespace
+}  // namespace fsp::frontend
+
+namespace fsp::frontend {
+namespace {
+
+// Statistics on a short piece of the default rendered room (rendered by `fsp render`, with its
+// calibration, distortion and pixel noise). Pins the current level; see the report in the front end's
+// notes for the known gap: a rendered AprilTag has a white margin outside its black square, and the
+// nesting rule reports the outer (margin) outline, while the ground truth is the black square, so every
+// tag counts as one miss and one false positive (windows, doors and posters are found).
+TEST(RectDetector, RenderedDefaultRoomStatistics) {
+  const auto dir = test::ScratchDir();
+  const std::string scene = std::string(FSP_SOURCE_DIR) + "/assets/scenes/default_room.yaml";
+  const auto r = test::RunFsp("render " + scene + " --out " + (dir / "seq").string() + " --duration 4 --no-video");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Calibration calib = ReadCalibration((dir / "seq" / "calib.yaml").string());
+  RectDetector det;
+  const MatchStats s = EvaluateSequence(
+      (dir / "seq").string(), [&](const cv::Mat& g) { return det.Detect(g, &calib.camera).detections; });
+  std::printf("rendered room 4 s: %d frames, recall %.3f (%d/%d), precision %.3f (%d/%d), corner error median %.3f px, "
+              "p90 %.3f px, order mismatches %d\n",
+              s.frames, s.Recall(), s.gt_eligible_found, s.gt_eligible, s.Precision(), s.true_positives, s.detections,
+              s.ErrorQuantile(0.5), s.ErrorQuantile(0.9), s.order_mismatches);
+  EXPECT_GT(s.gt_eligible, 50);
+  EXPECT_LE(s.ErrorQuantile(0.5), 0.3);
+  EXPECT_LE(s.ErrorQuantile(0.9), 1.0);
+  EXPECT_EQ(s.order_mismatches, 0);
+  EXPECT_GE(s.Recall(), 0.95);
+  EXPECT_GE(s.Precision(), 0.6);  // 0.69 now: tag margins and partly visible doors
 }
 
 }  // namespace
