@@ -1,0 +1,169 @@
+// `fsp run --frontend gt-corners` end to end on a short rendered sequence (a 10 x 8 x 3 m room, 12
+// rectangles, 10 s: 2 s still, then a loop in front of two walls; 320 x 240 images): window mode with
+// 1 px corner noise stays within bounds set from measurement, and noise-free corners converge to the
+// truth. The sequence is rendered once per test binary run (a few seconds).
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "fsp/common/observations_io.h"
+#include "fsp/common/trajectory_io.h"
+#include "fsp/eval/evaluate.h"
+#include "fsp/sim/scene.h"
+#include "fsp/sim/sequence_writer.h"
+#include "test_util.h"
+
+namespace fsp::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+const char* kScene = R"(
+camera: {width: 320, height: 240, fx: 229.0, fy: 229.0, cx: 159.5, cy: 119.5, rate_hz: 20}
+T_B_C: [0, 0, 1, 0.05,  -1, 0, 0, 0.0,  0, -1, 0, 0.0,  0, 0, 0, 1]
+imu: {rate_hz: 200, gyroscope_noise_density: 1.7e-4, accelerometer_noise_density: 2.0e-3,
+      gyroscope_random_walk: 1.9e-5, accelerometer_random_walk: 3.0e-3,
+      gyroscope_bias: [0.002, -0.001, 0.0015], accelerometer_bias: [0.03, -0.02, 0.04]}
+room: {min: [0, 0, 0], max: [10, 8, 3]}
+objects:
+  - {id: 1, class: door, corners: [[1.9, 0, 0], [1.0, 0, 0], [1.0, 0, 2.1], [1.9, 0, 2.1]]}
+  - {id: 2, class: window, position: [4.6, 0, 1.0], rpy_deg: [90, 0, 180], width: 1.4, height: 1.2}
+  - {id: 3, class: window, position: [7.2, 0, 1.0], rpy_deg: [90, 0, 180], width: 1.4, height: 1.2}
+  - {id: 4, class: poster, position: [9.2, 0, 1.1], rpy_deg: [90, 0, 180], width: 0.8, height: 1.0}
+  - {id: 30, class: tag, tag_id: 30, position: [2.75, 0, 1.3], rpy_deg: [90, 0, 180], width: 0.3, height: 0.3}
+  - {id: 31, class: tag, tag_id: 31, position: [5.3, 0, 1.4], rpy_deg: [90, 0, 180], width: 0.16, height: 0.16}
+  - {id: 10, class: window, position: [0, 1.5, 1.0], rpy_deg: [90, 0, 90], width: 1.5, height: 1.2}
+  - {id: 11, class: poster, position: [0, 3.9, 1.2], rpy_deg: [90, 0, 90], width: 0.7, height: 1.0}
+  - {id: 33, class: tag, tag_id: 33, position: [0, 5.3, 1.4], rpy_deg: [90, 0, 90], width: 0.16, height: 0.16}
+  - {id: 12, class: door, position: [0, 6.4, 0], rpy_deg: [90, 0, 90], width: 0.9, height: 2.1}
+  - {id: 5, class: cabinet, corners: [[0.8, 8, 0], [2.0, 8, 0], [2.0, 8, 1.8], [0.8, 8, 1.8]]}
+  - {id: 6, class: painting, position: [2.8, 8, 1.3], rpy_deg: [90, 0, 0], width: 1.2, height: 0.8}
+trajectory:
+  waypoints:
+    - [0,  5.0, 4.0, 1.3, -90]
+    - [2,  5.0, 4.0, 1.3, -90]
+    - [4,  5.0, 2.4, 1.5, -90]
+    - [6,  3.5, 1.8, 1.3, -110]
+    - [8,  2.0, 2.4, 1.5, -160]
+    - [10, 1.8, 3.6, 1.2, 170]
+    - [12, 2.2, 5.0, 1.6, 150]
+noise: {pixel_sigma: 1.0, seed: 3}
+duration_s: 10
+)";
+
+// The sequence, rendered once into the temp folder.
+const fs::path& Sequence() {
+  static const fs::path dir = [] {
+    const fs::path d = fs::temp_directory_path() / "fsp_tests" / "apps_e2e_sequence";
+    fs::remove_all(d);
+    sim::SequenceOptions options;
+    options.video = false;
+    options.top_view = false;
+    options.progress = false;
+    sim::WriteSequence(sim::ParseScene(kScene, "e2e_scene.yaml", "."), d.string(), options);
+    return d;
+  }();
+  return dir;
+}
+
+struct RunResult {
+  test::CommandResult command;
+  eval::Metrics metrics;
+  nlohmann::json run;
+};
+
+// Runs `fsp run` on the sequence into OUT and evaluates it against the ground truth.
+RunResult RunAndEvaluate(const std::string& extra_args, const fs::path& out) {
+  RunResult r;
+  r.command = test::RunFsp("run " + Sequence().string() + " --frontend gt-corners --out " + out.string() + " " +
+                           extra_args);
+  EXPECT_EQ(r.command.exit_code, 0) << r.command.err;
+  if (r.command.exit_code != 0) return r;
+  r.metrics = eval::Evaluate(eval::ResolvePaths(Sequence().string(), out.string()), eval::EvalOptions());
+  std::ifstream in(out / "run.json");
+  in >> r.run;
+  return r;
+}
+
+void Print(const char* label, const RunResult& r) {
+  if (!r.metrics.trajectory || !r.metrics.objects) return;
+  const auto& t = *r.metrics.trajectory;
+  const auto& o = *r.metrics.objects;
+  std::printf("[%s] ATE %.4f m, RPE %.4f m/frame, objects %zu/%zu, corner err mean %.4f median %.4f m, "
+              "width err mean %.4f max %.4f m, height err mean %.4f max %.4f m, back end median %.2f ms\n",
+              label, t.ate.rmse, t.rpe_trans.rmse, o.matched, o.gt, o.corner_err.mean, o.corner_err.median,
+              o.width_err.mean, o.width_err.max, o.height_err.mean, o.height_err.max,
+              r.run["stage_ms"]["backend"]["median"].get<double>());
+}
+
+// Bounds: measured values (estimator of commit cd44a67) plus ~50 % margin. With 1 px noise the window
+// mode is far from the issue's targets on this short sequence (measured ATE 0.45 m, width error mean
+// 0.27 m, while noise-free corners give 0.03 m): these bounds guard against regressions only and are to
+// be tightened as the window mode improves.
+TEST(RunEndToEnd, WindowModeWithOnePixelNoise) {
+  const RunResult r = RunAndEvaluate("--mode window --landmarks fsp --seed 1", test::ScratchDir() / "run");
+  ASSERT_TRUE(r.metrics.trajectory.has_value());
+  ASSERT_TRUE(r.metrics.objects.has_value());
+  Print("window, 1 px", r);
+  // Outputs as CONTRACT.md names them.
+  EXPECT_EQ(r.run["frames"].get<int>(), 200);
+  EXPECT_GT(r.run["keyframes"].get<int>(), 0);
+  EXPECT_TRUE(r.run["stage_ms"]["backend"].contains("p90"));
+  EXPECT_GT(r.run["realtime_factor"].get<double>(), 0.0);
+  EXPECT_NE(r.command.out.find("real time"), std::string::npos);
+  const auto& t = *r.metrics.trajectory;
+  const auto& o = *r.metrics.objects;
+  EXPECT_EQ(t.pairs, 200u);
+  EXPECT_GE(o.matched, 5u);  // every object fully visible in >= 3 frames of this sequence
+  EXPECT_LT(t.ate.rmse, 0.65);
+  EXPECT_LT(o.width_err.mean, 0.40);
+  EXPECT_LT(o.height_err.mean, 0.35);
+  EXPECT_LT(o.corner_err.mean, 1.3);
+}
+
+// Noise-free corners: what remains is the IMU noise (scale, drift) over 10 s. Measured (cd44a67):
+// batch ATE 1.9 cm, width error max 4.1 cm, height max 3.3 cm, corner mean 4.5 cm; window ATE 3.2 cm,
+// width max 8.6 cm, corner mean 7.0 cm.
+TEST(RunEndToEnd, NoiseFreeCornersConverge) {
+  const fs::path dir = test::ScratchDir(), cfg = dir / "sigma0.yaml";
+  std::ofstream(cfg) << "frontend:\n  gt_corners:\n    pixel_sigma: 0\n";
+  const RunResult b = RunAndEvaluate("--mode batch --config " + cfg.string(), dir / "batch");
+  ASSERT_TRUE(b.metrics.trajectory.has_value());
+  ASSERT_TRUE(b.metrics.objects.has_value());
+  Print("batch, noise-free", b);
+  EXPECT_LT(b.metrics.trajectory->ate.rmse, 0.03);
+  EXPECT_LT(b.metrics.objects->width_err.max, 0.06);
+  EXPECT_LT(b.metrics.objects->height_err.max, 0.05);
+  EXPECT_LT(b.metrics.objects->corner_err.mean, 0.07);
+
+  const RunResult w = RunAndEvaluate("--mode window --config " + cfg.string(), dir / "window");
+  ASSERT_TRUE(w.metrics.trajectory.has_value());
+  ASSERT_TRUE(w.metrics.objects.has_value());
+  Print("window, noise-free", w);
+  EXPECT_LT(w.metrics.trajectory->ate.rmse, 0.05);
+  EXPECT_LT(w.metrics.objects->width_err.max, 0.13);
+  EXPECT_LT(w.metrics.objects->corner_err.mean, 0.11);
+}
+
+TEST(RunEndToEnd, SameSeedSameOutput) {
+  const fs::path a = test::ScratchDir() / "a", b = test::ScratchDir().parent_path() / "b_same_seed";
+  const std::string base = "run " + Sequence().string() + " --frontend gt-corners --seed 5 --out ";
+  ASSERT_EQ(test::RunFsp(base + a.string()).exit_code, 0);
+  ASSERT_EQ(test::RunFsp(base + b.string()).exit_code, 0);
+  const auto slurp = [](const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  for (const char* f : {"observations.csv", "trajectory.tum", "map.json"})
+    EXPECT_EQ(slurp(a / f), slurp(b / f)) << f;
+  EXPECT_FALSE(slurp(a / "observations.csv").empty());
+}
+
+}  // namespace
+}  // namespace fsp::apps
