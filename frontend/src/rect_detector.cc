@@ -787,16 +787,17 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       QuadStats(smooth, det.corners_px, 1.25, &out_mean, &out_std);
       const double h_over_w = 1.0 / q.aspect_w_h;
       //  - door: tall (metric h/w 1.7..3.2), not strongly textured;
-      //  - poster: strongly textured interior (grey-level std > 30: print, pattern, board);
-      //  - window: much brighter than its surroundings (> 30 grey levels: daylight) and not textured;
+      //  - window: much brighter than its surroundings (> 30 grey levels: daylight; mullions allowed);
+      //  - poster: otherwise a strongly textured interior (grey-level std > 30: print, pattern);
+      //    (a white calibration board on a dark background is therefore called a window);
       //  - cabinet is never guessed from one image (a cabinet front looks like a wall panel);
       //  - otherwise unknown.
       if (h_over_w >= 1.7 && h_over_w <= 3.2 && in_std < 40.0) {
         det.object_class = ObjectClass::kDoor;
-      } else if (in_std > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) {
-        det.object_class = ObjectClass::kPoster;
       } else if (out_mean >= 0.0 && in_mean - out_mean > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) {
         det.object_class = ObjectClass::kWindow;
+      } else if (in_std > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) {
+        det.object_class = ObjectClass::kPoster;
       }
     }
     res.detections.push_back(det);
