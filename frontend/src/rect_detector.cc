@@ -772,6 +772,28 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     for (const Quad& u : unique) dup = dup || CornerDistanceBestShift(q.c, u.c) < 1e-9;
     if (!dup) unique.push_back(q);
   }
+  if (o.drop_contained) {
+    // One object per outer rectangle: drop quads lying inside another kept quad (panes, door panels,
+    // the pattern squares of a tag), with a 2 px margin for shared sides.
+    std::vector<Quad> outer_only;
+    for (const Quad& q : unique) {
+      bool contained = false;
+      for (const Quad& u : unique) {
+        if (&u == &q || u.area <= q.area) continue;
+        const Vec2 centre = 0.25 * (u.c[0] + u.c[1] + u.c[2] + u.c[3]);
+        Corners grown;
+        for (int i = 0; i < 4; ++i) {
+          const Vec2 r = u.c[i] - centre;
+          grown[i] = u.c[i] + 2.0 * r / std::max(r.norm(), 1e-9);
+        }
+        bool inside = true;
+        for (const Vec2& p : q.c) inside = inside && InsideConvex(grown, p);
+        contained = contained || inside;
+      }
+      if (!contained) outer_only.push_back(q);
+    }
+    unique.swap(outer_only);
+  }
   if (o.max_detections > 0 && static_cast<int>(unique.size()) > o.max_detections) unique.resize(o.max_detections);
 
   for (const Quad& q : unique) {

@@ -130,6 +130,10 @@ struct RectDetectorOptions {
   // ...but an outer outline whose score is lower than the inner one's by more than this keeps the
   // inner one (the side face of a thick board or box seen at an angle is not part of the rectangle).
   double nest_score_margin = 0.05;
+  // Report one object per outer rectangle: quads lying inside another detection (window panes, door
+  // panels, the pattern squares of a tag) are dropped. False keeps them (a poster on a door becomes
+  // its own object again, but so does every pane).
+  bool drop_contained = true;
   // At most this many detections, best score first (0: no limit).
   int max_detections = 0;
 
