@@ -25,8 +25,9 @@
 // share two adjacent corners (a board and the quad closed by the row
 // of tags below its top edge; a window and its lower pane) they are alternatives for one object and
 // the better-scoring one is kept; so are near-concentric quads that cross (one side from each of two
-// parallel outlines). Other rectangles inside rectangles (a poster on a door, the tags on
-// a calibration board, windows on a facade) are kept as objects of their own.
+// parallel outlines). Finally, with `drop_contained` (default), any rectangle inside another detection
+// is dropped (one object per outer rectangle: panes, door panels, tag pattern squares); without it,
+// rectangles inside rectangles (a poster on a door) are kept as objects of their own.
 //
 // Pixel thresholds are either relative (a fraction of a segment's length or of the image diagonal) or
 // tied to the edge profile (fractions of a pixel); none is tuned to one camera.
