@@ -40,17 +40,21 @@ cv::Mat DrawDetections(const cv::Mat& image, const std::vector<Detection>& detec
     const Vec2 centre = 0.25 * (d.corners_px[0] + d.corners_px[1] + d.corners_px[2] + d.corners_px[3]);
     for (int i = 0; i < 4; ++i) {
       cv::circle(out, P(d.corners_px[i]), static_cast<int>(2.5 * s * kScale), {0, 0, 255}, thick, cv::LINE_AA, kShift);
-      // Number placed slightly inside the quad so it stays on the object.
-      const Vec2 p = d.corners_px[i] + 0.18 * (centre - d.corners_px[i]);
+      // Number placed just outside the corner (away from the centre) so it never covers the object.
+      const Vec2 away = (d.corners_px[i] - centre).normalized();
+      const Vec2 p = d.corners_px[i] + 9.0 * s * away;
       const std::string num = std::to_string(i + 1);
-      const cv::Point at(static_cast<int>(p.x() - 4 * s), static_cast<int>(p.y() + 4 * s));
+      const cv::Point at(static_cast<int>(p.x() - 4 * s), static_cast<int>(p.y() + 5 * s));
       cv::putText(out, num, at, cv::FONT_HERSHEY_SIMPLEX, font, {0, 0, 0}, thick + 2, cv::LINE_AA);
       cv::putText(out, num, at, cv::FONT_HERSHEY_SIMPLEX, font, {255, 255, 255}, thick, cv::LINE_AA);
     }
     char label[96];
     if (d.tag_id >= 0) std::snprintf(label, sizeof(label), "tag %d %.2f", d.tag_id, d.score);
     else std::snprintf(label, sizeof(label), "%s %.2f", ToString(d.object_class), d.score);
-    const cv::Point at(static_cast<int>(centre.x() - 20 * s), static_cast<int>(centre.y()));
+    // Label above the quad's top-most corner.
+    double top = d.corners_px[0].y();
+    for (const auto& c : d.corners_px) top = std::min(top, c.y());
+    const cv::Point at(static_cast<int>(centre.x() - 20 * s), static_cast<int>(top - 14 * s));
     cv::putText(out, label, at, cv::FONT_HERSHEY_SIMPLEX, font, {0, 0, 0}, thick + 2, cv::LINE_AA);
     cv::putText(out, label, at, cv::FONT_HERSHEY_SIMPLEX, font, col, thick, cv::LINE_AA);
   }
