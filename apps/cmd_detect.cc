@@ -1,5 +1,6 @@
-// fsp detect IMAGE... [--frontend rect|apriltag] [--calib FILE] [--out DIR]: corners of the rectangles or
-// AprilTags in single images, a detections.csv and a drawn PNG per image (CONTRACT.md).
+// fsp detect IMAGE... [--frontend rect|apriltag] [--calib FILE] [--out DIR]: corners of the
+// rectangles or AprilTags in single images, a detections.csv and a drawn PNG per image
+// (CONTRACT.md).
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -56,10 +57,11 @@ void RunDetect(const DetectArgs& args) {
     const PinholeRadtan* cam = nullptr;
     if (calib) {
       if (calib->camera.width != gray.cols || calib->camera.height != gray.rows)
-        throw InputError(path, 0, "image is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-                                      " but the calibration " + args.calib + " is for " +
-                                      std::to_string(calib->camera.width) + "x" +
-                                      std::to_string(calib->camera.height));
+        throw InputError(path, 0,
+                         "image is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                             " but the calibration " + args.calib + " is for " +
+                             std::to_string(calib->camera.width) + "x" +
+                             std::to_string(calib->camera.height));
       cam = &calib->camera;
     }
     std::vector<frontend::Detection> dets;
@@ -79,35 +81,40 @@ void RunDetect(const DetectArgs& args) {
     if (!args.out.empty()) {
       char buf[512];
       for (const auto& d : dets) {
-        std::snprintf(buf, sizeof(buf), "%s,%d,%s,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.4f\n", name.c_str(),
-                      d.tag_id, ToString(d.object_class), d.corners_px[0].x(), d.corners_px[0].y(),
-                      d.corners_px[1].x(), d.corners_px[1].y(), d.corners_px[2].x(), d.corners_px[2].y(),
-                      d.corners_px[3].x(), d.corners_px[3].y(), d.score);
+        std::snprintf(buf, sizeof(buf), "%s,%d,%s,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.4f\n",
+                      name.c_str(), d.tag_id, ToString(d.object_class), d.corners_px[0].x(),
+                      d.corners_px[0].y(), d.corners_px[1].x(), d.corners_px[1].y(),
+                      d.corners_px[2].x(), d.corners_px[2].y(), d.corners_px[3].x(),
+                      d.corners_px[3].y(), d.score);
         csv << buf;
       }
-      const std::string png = args.out + "/" + std::filesystem::path(path).stem().string() + "_detect.png";
+      const std::string png =
+          args.out + "/" + std::filesystem::path(path).stem().string() + "_detect.png";
       if (!cv::imwrite(png, frontend::DrawDetections(gray, dets)))
         throw InputError(png, 0, "cannot write the drawn image");
     }
   }
-  if (csv.is_open() && !csv.flush()) throw InputError(args.out + "/detections.csv", 0, "write failed");
+  if (csv.is_open() && !csv.flush())
+    throw InputError(args.out + "/detections.csv", 0, "write failed");
 }
 
 }  // namespace
 
 void AddDetectCommand(CLI::App& root) {
   auto args = std::make_shared<DetectArgs>();
-  auto* sub = root.add_subcommand(
-      "detect",
-      "Detect rectangles (or AprilTags) in images: corners in s1..s4 order (bottom-left, bottom-right,\n"
-      "top-right, top-left), DIR/detections.csv in distorted image pixels and a drawn PNG per image");
+  auto* sub = root.add_subcommand("detect",
+                                  "Detect rectangles (or AprilTags) in images: corners in s1..s4 "
+                                  "order (bottom-left, bottom-right,\n"
+                                  "top-right, top-left), DIR/detections.csv in distorted image "
+                                  "pixels and a drawn PNG per image");
   sub->add_option("images", args->images, "8-bit images (PNG, JPEG, ...)")->required();
   sub->add_option("--frontend", args->frontend, "rect (plain rectangles) or apriltag")
       ->check(CLI::IsMember({"rect", "apriltag"}));
   sub->add_option("--family", args->family, "AprilTag family (with --frontend apriltag)");
-  sub->add_option("--calib", args->calib,
-                  "camera calibration (EuRoC sensor.yaml, Kalibr camchain, fsp calib.yaml): sides are fitted\n"
-                  "as straight lines after undistortion");
+  sub->add_option(
+      "--calib", args->calib,
+      "camera calibration (EuRoC sensor.yaml, Kalibr camchain, fsp calib.yaml): sides are fitted\n"
+      "as straight lines after undistortion");
   sub->add_option("--out", args->out, "output folder for detections.csv and the drawn PNGs");
   sub->callback([args] { RunDetect(*args); });
 }

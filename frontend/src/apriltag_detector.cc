@@ -64,7 +64,8 @@ std::vector<std::string> AprilTagDetector::Families() {
   return names;
 }
 
-AprilTagDetector::AprilTagDetector(Options options) : options_(std::move(options)), impl_(new Impl) {
+AprilTagDetector::AprilTagDetector(Options options)
+    : options_(std::move(options)), impl_(new Impl) {
   std::string why;
   FSP_CHECK(options_.Check(&why));
   for (const auto& f : kFamilies)
@@ -87,12 +88,14 @@ AprilTagDetector::AprilTagDetector(Options options) : options_(std::move(options
 
 AprilTagDetector::~AprilTagDetector() = default;
 
-AprilTagDetector::Result AprilTagDetector::Detect(const cv::Mat& gray, const PinholeRadtan* camera) const {
+AprilTagDetector::Result AprilTagDetector::Detect(const cv::Mat& gray,
+                                                  const PinholeRadtan* camera) const {
   FSP_CHECK(gray.type() == CV_8UC1 && !gray.empty());
   Result res;
   Stopwatch sw;
   // libapriltag reads the buffer only; the cast drops const for its C struct.
-  image_u8_t im{gray.cols, gray.rows, static_cast<int32_t>(gray.step[0]), const_cast<uint8_t*>(gray.ptr<uint8_t>(0))};
+  image_u8_t im{gray.cols, gray.rows, static_cast<int32_t>(gray.step[0]),
+                const_cast<uint8_t*>(gray.ptr<uint8_t>(0))};
   zarray_t* dets = apriltag_detector_detect(impl_->detector, &im);
   res.times.Add("apriltag", sw.Lap());
   const bool distort = camera && camera->HasDistortion();
@@ -104,9 +107,11 @@ AprilTagDetector::Result AprilTagDetector::Detect(const cv::Mat& gray, const Pin
     det.tag_id = d->id;
     det.object_class = ObjectClass::kTag;
     for (int k = 0; k < 4; ++k) {
-      // libapriltag: pixel (0,0) covers [0,1)², its centre is (0.5, 0.5) -> subtract 0.5 (OpenCV centres).
+      // libapriltag: pixel (0,0) covers [0,1)², its centre is (0.5, 0.5) -> subtract 0.5 (OpenCV
+      // centres).
       det.corners_px[k] = Vec2(d->p[k][0] - 0.5, d->p[k][1] - 0.5);
-      det.corners_undistorted[k] = distort ? camera->UndistortPixel(det.corners_px[k]) : det.corners_px[k];
+      det.corners_undistorted[k] =
+          distort ? camera->UndistortPixel(det.corners_px[k]) : det.corners_px[k];
     }
     det.score = d->decision_margin / (d->decision_margin + 50.0);
     res.detections.push_back(det);

@@ -15,7 +15,9 @@ ObjectObservation Detection::ToObservation(int64_t t_ns) const {
   return obs;
 }
 
-void StageTimes::Add(const std::string& stage, double milliseconds) { ms.emplace_back(stage, milliseconds); }
+void StageTimes::Add(const std::string& stage, double milliseconds) {
+  ms.emplace_back(stage, milliseconds);
+}
 
 double StageTimes::Total() const {
   double total = 0.0;

@@ -12,13 +12,18 @@
 
 namespace fsp::frontend {
 
-double MatchStats::Recall() const { return gt_eligible ? double(gt_eligible_found) / gt_eligible : 1.0; }
-double MatchStats::Precision() const { return detections ? double(true_positives) / detections : 1.0; }
+double MatchStats::Recall() const {
+  return gt_eligible ? double(gt_eligible_found) / gt_eligible : 1.0;
+}
+double MatchStats::Precision() const {
+  return detections ? double(true_positives) / detections : 1.0;
+}
 
 double MatchStats::ErrorQuantile(double q) const {
   if (corner_err_px.empty()) return std::numeric_limits<double>::quiet_NaN();
   std::vector<double> e = corner_err_px;
-  const size_t k = std::min(e.size() - 1, static_cast<size_t>(std::floor(q * (e.size() - 1) + 0.5)));
+  const size_t k =
+      std::min(e.size() - 1, static_cast<size_t>(std::floor(q * (e.size() - 1) + 0.5)));
   std::nth_element(e.begin(), e.begin() + k, e.end());
   return e[k];
 }
@@ -38,10 +43,13 @@ MatchStats MatchFrame(const std::vector<Detection>& dets, const std::vector<GtOb
   MatchStats s;
   s.frames = 1;
   s.detections = static_cast<int>(dets.size());
-  auto tolerance = [&](const GtObservation& g) { return std::max(o.match_px, o.match_frac * ShortestSide(g.corners)); };
+  auto tolerance = [&](const GtObservation& g) {
+    return std::max(o.match_px, o.match_frac * ShortestSide(g.corners));
+  };
   for (const Detection& d : dets) {
     bool tp = false;
-    for (const GtObservation& g : gt) tp = tp || CornerDistanceBestShift(d.corners_undistorted, g.corners) <= tolerance(g);
+    for (const GtObservation& g : gt)
+      tp = tp || CornerDistanceBestShift(d.corners_undistorted, g.corners) <= tolerance(g);
     s.true_positives += tp;
   }
   for (const GtObservation& g : gt) {
@@ -63,13 +71,14 @@ MatchStats MatchFrame(const std::vector<Detection>& dets, const std::vector<GtOb
     ++s.gt_eligible_found;
     if (best_shift != 0) ++s.order_mismatches;
     for (int i = 0; i < 4; ++i)
-      s.corner_err_px.push_back((g.corners[i] - best_det->corners_undistorted[(i + best_shift) % 4]).norm());
+      s.corner_err_px.push_back(
+          (g.corners[i] - best_det->corners_undistorted[(i + best_shift) % 4]).norm());
   }
   return s;
 }
 
-MatchStats EvaluateSequence(const std::string& dir, const DetectFn& detect, const MatchOptions& options,
-                            int every) {
+MatchStats EvaluateSequence(const std::string& dir, const DetectFn& detect,
+                            const MatchOptions& options, int every) {
   FSP_CHECK(every >= 1);
   const std::vector<GtObservation> gt = ReadCornerRows(dir + "/observations_gt.csv");
   std::map<int64_t, std::vector<GtObservation>> by_time;
@@ -84,7 +93,8 @@ MatchStats EvaluateSequence(const std::string& dir, const DetectFn& detect, cons
     if (index++ % every != 0) continue;
     const cv::Mat gray = ReadGray8(dir + "/mav0/cam0/data/" + f[1]);
     const auto it = by_time.find(t_ns);
-    total.Merge(MatchFrame(detect(gray), it == by_time.end() ? std::vector<GtObservation>() : it->second, options));
+    total.Merge(MatchFrame(
+        detect(gray), it == by_time.end() ? std::vector<GtObservation>() : it->second, options));
   }
   return total;
 }

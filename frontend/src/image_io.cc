@@ -12,7 +12,8 @@ namespace fsp::frontend {
 cv::Mat ReadGray8(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw InputError(path, 0, "image file does not exist");
-  if (std::filesystem::is_directory(path, ec)) throw InputError(path, 0, "is a directory, not an image");
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path, 0, "is a directory, not an image");
   const auto size = std::filesystem::file_size(path, ec);
   if (ec) throw InputError(path, 0, "cannot read image file (" + ec.message() + ")");
   if (size == 0) throw InputError(path, 0, "image file is empty (0 bytes)");
@@ -24,13 +25,17 @@ cv::Mat ReadGray8(const std::string& path) {
   } catch (const cv::Exception&) {
     throw InputError(path, 0, "image does not decode");
   }
-  if (img.empty()) throw InputError(path, 0, "image does not decode (not a PNG/JPEG/... or corrupt)");
+  if (img.empty())
+    throw InputError(path, 0, "image does not decode (not a PNG/JPEG/... or corrupt)");
   if (img.depth() != CV_8U)
-    throw InputError(path, 0, std::string("image is not 8-bit per channel (depth ") +
-                                  (img.depth() == CV_16U ? "16-bit" : "not 8-bit") +
-                                  "); convert it to 8-bit first");
+    throw InputError(path, 0,
+                     std::string("image is not 8-bit per channel (depth ") +
+                         (img.depth() == CV_16U ? "16-bit" : "not 8-bit") +
+                         "); convert it to 8-bit first");
   if (img.rows < 8 || img.cols < 8)
-    throw InputError(path, 0, "image is too small (" + std::to_string(img.cols) + "x" + std::to_string(img.rows) + ")");
+    throw InputError(
+        path, 0,
+        "image is too small (" + std::to_string(img.cols) + "x" + std::to_string(img.rows) + ")");
   FSP_CHECK(img.channels() == 1);
   return img;
 }

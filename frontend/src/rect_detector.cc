@@ -22,28 +22,35 @@ bool RectDetectorOptions::Check(std::string* why) const {
   };
   positive(canny_noise_multiple, "canny_noise_multiple");
   positive(min_edge_contrast, "min_edge_contrast");
-  if (!(canny_low_ratio > 0.0 && canny_low_ratio <= 1.0)) os << "canny_low_ratio must be in (0, 1]; ";
+  if (!(canny_low_ratio > 0.0 && canny_low_ratio <= 1.0))
+    os << "canny_low_ratio must be in (0, 1]; ";
   positive(min_segment_frac, "min_segment_frac");
   positive(segment_fit_px, "segment_fit_px");
   positive(merge_angle_deg, "merge_angle_deg");
   positive(merge_line_px, "merge_line_px");
   if (merge_gap_frac < 0.0) os << "merge_gap_frac must be >= 0; ";
   positive(min_side_frac, "min_side_frac");
-  if (!(min_corner_angle_deg > 0.0 && min_corner_angle_deg < 90.0)) os << "min_corner_angle_deg must be in (0, 90); ";
+  if (!(min_corner_angle_deg > 0.0 && min_corner_angle_deg < 90.0))
+    os << "min_corner_angle_deg must be in (0, 90); ";
   if (junction_gap_frac < 0.0 || junction_overshoot_frac < 0.0 || junction_slack_px < 0.0)
     os << "junction tolerances must be >= 0; ";
   if (max_hypotheses < 1) os << "max_hypotheses must be >= 1; ";
   positive(search_px, "search_px");
-  if (!(search_step_px > 0.0 && search_step_px <= search_px)) os << "search_step_px must be in (0, search_px]; ";
+  if (!(search_step_px > 0.0 && search_step_px <= search_px))
+    os << "search_step_px must be in (0, search_px]; ";
   if (samples_per_side < 4) os << "samples_per_side must be >= 4; ";
-  if (!(corner_margin_frac >= 0.0 && corner_margin_frac < 0.4)) os << "corner_margin_frac must be in [0, 0.4); ";
+  if (!(corner_margin_frac >= 0.0 && corner_margin_frac < 0.4))
+    os << "corner_margin_frac must be in [0, 0.4); ";
   positive(ransac_inlier_px, "ransac_inlier_px");
   if (ransac_iterations < 1) os << "ransac_iterations must be >= 1; ";
-  if (!(min_side_support >= 0.0 && min_side_support <= 1.0)) os << "min_side_support must be in [0, 1]; ";
+  if (!(min_side_support >= 0.0 && min_side_support <= 1.0))
+    os << "min_side_support must be in [0, 1]; ";
   if (!(max_abs_cos > 0.0 && max_abs_cos <= 1.0)) os << "max_abs_cos must be in (0, 1]; ";
   if (!(max_aspect >= 1.0)) os << "max_aspect must be >= 1; ";
-  if (!(assumed_hfov_deg > 1.0 && assumed_hfov_deg < 179.0)) os << "assumed_hfov_deg must be in (1, 179); ";
-  if (duplicate_corner_frac < 0.0 || nest_corner_frac < 0.0) os << "suppression fractions must be >= 0; ";
+  if (!(assumed_hfov_deg > 1.0 && assumed_hfov_deg < 179.0))
+    os << "assumed_hfov_deg must be in (1, 179); ";
+  if (duplicate_corner_frac < 0.0 || nest_corner_frac < 0.0)
+    os << "suppression fractions must be >= 0; ";
   if (max_detections < 0) os << "max_detections must be >= 0; ";
   if (why) *why = os.str();
   return os.str().empty();
@@ -94,10 +101,10 @@ bool Intersect(const Line& l1, const Line& l2, Vec2* x) {
   return true;
 }
 
-// Weighted total least squares line: the normal is the eigenvector of the smallest eigenvalue of the
-// weighted scatter matrix about the weighted centroid.
-bool FitLineTls(const std::vector<Vec2>& pts, const std::vector<double>& w, const std::vector<int>& idx,
-                Line* line) {
+// Weighted total least squares line: the normal is the eigenvector of the smallest eigenvalue of
+// the weighted scatter matrix about the weighted centroid.
+bool FitLineTls(const std::vector<Vec2>& pts, const std::vector<double>& w,
+                const std::vector<int>& idx, Line* line) {
   if (idx.size() < 2) return false;
   double sw = 0.0;
   Vec2 mu = Vec2::Zero();
@@ -129,21 +136,24 @@ inline bool Bilinear(const cv::Mat& img, double x, double y, double* v) {
   return true;
 }
 
-// Canny thresholds from the gradient statistics. The median Sobel magnitude over (a subsample of) the
-// image is dominated by flat regions, where the magnitude of Gaussian noise is Rayleigh-distributed:
-// median = 1.177 σ_r. High threshold = max(multiple · σ_r, 4 · min_contrast) (Sobel's response to a sharp
-// step of C grey levels is 4C); low = ratio · high.
-void CannyThresholds(const cv::Mat& smooth, const RectDetectorOptions& o, double* low, double* high) {
+// Canny thresholds from the gradient statistics. The median Sobel magnitude over (a subsample of)
+// the image is dominated by flat regions, where the magnitude of Gaussian noise is
+// Rayleigh-distributed: median = 1.177 σ_r. High threshold = max(multiple · σ_r, 4 · min_contrast)
+// (Sobel's response to a sharp step of C grey levels is 4C); low = ratio · high.
+void CannyThresholds(const cv::Mat& smooth, const RectDetectorOptions& o, double* low,
+                     double* high) {
   constexpr int kBins = 2048;
   std::array<int, kBins> hist{};
   int n = 0;
-  // Sobel magnitude at every 3rd pixel of every 3rd row (~34k samples at 640x480, plenty for a median).
+  // Sobel magnitude at every 3rd pixel of every 3rd row (~34k samples at 640x480, plenty for a
+  // median).
   for (int y = 1; y < smooth.rows - 1; y += 3) {
     const uint8_t* r0 = smooth.ptr<uint8_t>(y - 1);
     const uint8_t* r1 = smooth.ptr<uint8_t>(y);
     const uint8_t* r2 = smooth.ptr<uint8_t>(y + 1);
     for (int x = 1; x < smooth.cols - 1; x += 3) {
-      const int gx = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
+      const int gx =
+          (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
       const int gy = (r2[x - 1] - r0[x - 1]) + 2 * (r2[x] - r0[x]) + (r2[x + 1] - r0[x + 1]);
       const double m = std::sqrt(static_cast<double>(gx * gx + gy * gy));
       ++hist[std::min(kBins - 1, static_cast<int>(m))];
@@ -164,7 +174,8 @@ void CannyThresholds(const cv::Mat& smooth, const RectDetectorOptions& o, double
 }
 
 // Merges collinear pieces (union of compatible pairs, then one TLS line through all endpoints).
-std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, double line_px, double gap_px) {
+std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, double line_px,
+                                double gap_px) {
   const int n = static_cast<int>(in.size());
   std::vector<int> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
@@ -173,7 +184,8 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
     return i;
   };
   std::vector<double> theta(n);
-  for (int i = 0; i < n; ++i) theta[i] = std::atan2(in[i].dir.y(), in[i].dir.x()) + M_PI;  // [0, 2π]
+  for (int i = 0; i < n; ++i)
+    theta[i] = std::atan2(in[i].dir.y(), in[i].dir.x()) + M_PI;  // [0, 2π]
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(), [&](int i, int j) { return theta[i] < theta[j]; });
@@ -191,11 +203,12 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
     const double gap = std::max(lo - lng.len, -hi);
     return gap <= gap_px;
   };
-  // A smoothly bending edge (bent paper, residual distortion) splits into pieces that are not collinear
-  // within line_px but continue each other: the end of one touches the start of the next.
+  // A smoothly bending edge (bent paper, residual distortion) splits into pieces that are not
+  // collinear within line_px but continue each other: the end of one touches the start of the next.
   auto continues = [&](const Seg& s, const Seg& t) {
     if (s.dir.dot(t.dir) < cos_tol) return false;
-    return (s.b - t.a).squaredNorm() <= line_px * line_px || (t.b - s.a).squaredNorm() <= line_px * line_px;
+    return (s.b - t.a).squaredNorm() <= line_px * line_px ||
+           (t.b - s.a).squaredNorm() <= line_px * line_px;
   };
   for (int oi = 0; oi < n; ++oi) {
     const int i = order[oi];
@@ -258,7 +271,8 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
 std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
   static const int kDx[8] = {1, 1, 0, -1, -1, -1, 0, 1};
   static const int kDy[8] = {0, 1, 1, 1, 0, -1, -1, -1};
-  static const float kInvLen[8] = {1.f, 0.70710678f, 1.f, 0.70710678f, 1.f, 0.70710678f, 1.f, 0.70710678f};
+  static const float kInvLen[8] = {1.f, 0.70710678f, 1.f, 0.70710678f,
+                                   1.f, 0.70710678f, 1.f, 0.70710678f};
   std::vector<std::vector<cv::Point>> chains;
   const int W = edges.cols, H = edges.rows;
   // Border pixels are cleared so neighbour lookups stay inside the image.
@@ -266,8 +280,9 @@ std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
   edges.row(H - 1).setTo(0);
   edges.col(0).setTo(0);
   edges.col(W - 1).setTo(0);
-  // The walk's heading is the direction over the last few steps (a digital line of slope 1/2 alternates
-  // between two 8-neighbour steps; a single-step heading would follow any branch at a junction).
+  // The walk's heading is the direction over the last few steps (a digital line of slope 1/2
+  // alternates between two 8-neighbour steps; a single-step heading would follow any branch at a
+  // junction).
   auto walk = [&](cv::Point p, int dir, std::vector<cv::Point>* out) {
     constexpr int kMemory = 4;
     for (;;) {
@@ -283,8 +298,9 @@ std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
       const uint8_t* rows[3] = {row_m, row_0, row_p};
       for (int k = 0; k < 8; ++k) {
         if (!rows[kDy[k] + 1][kDx[k]]) continue;
-        const float score = (dir < 0 && n == 0) ? -static_cast<float>(k)
-                                                : (kDx[k] * heading.x + kDy[k] * heading.y) * kInvLen[k];
+        const float score = (dir < 0 && n == 0)
+                                ? -static_cast<float>(k)
+                                : (kDx[k] * heading.x + kDy[k] * heading.y) * kInvLen[k];
         if (score > best_score) {
           best_score = score;
           best = k;
@@ -326,7 +342,8 @@ std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
 }
 
 // Splits a pixel chain into straight pieces (recursive split at the farthest point from the chord
-// while it is farther than tol_px) and fits each piece of at least min_len pixels by total least squares.
+// while it is farther than tol_px) and fits each piece of at least min_len pixels by total least
+// squares.
 void SplitChain(const std::vector<cv::Point>& c, int i0, int i1, double tol_px, int min_len,
                 std::vector<std::pair<Vec2, Vec2>>* out) {
   if (i1 - i0 + 1 < min_len) return;
@@ -370,8 +387,8 @@ struct Junction {
   Vec2 x;        // intersection point
 };
 
-// Which end of s the point x (on s's line) is a corner for, or -1. Beyond the end by up to gap, inside
-// the segment by up to overshoot.
+// Which end of s the point x (on s's line) is a corner for, or -1. Beyond the end by up to gap,
+// inside the segment by up to overshoot.
 int JunctionEnd(const Seg& s, const Vec2& x, const RectDetectorOptions& o) {
   const double t = (x - s.a).dot(s.dir);
   const double beyond = t < 0.5 * s.len ? -t : t - s.len;  // > 0: x lies past that end
@@ -381,7 +398,7 @@ int JunctionEnd(const Seg& s, const Vec2& x, const RectDetectorOptions& o) {
 }
 
 struct Quad {
-  Corners c;               // undistorted px, grouping order (a∩b, b∩c, c∩d, d∩a)
+  Corners c;  // undistorted px, grouping order (a∩b, b∩c, c∩d, d∩a)
   double score = 0.0;
   double abs_cos = 1.0;
   double aspect_w_h = 1.0;  // metric width / height after canonical ordering
@@ -390,8 +407,9 @@ struct Quad {
 
 // RANSAC over two-point lines (most inliers wins), then weighted TLS on the inliers, twice. Returns
 // the number of final inliers (0 on failure).
-int RansacLine(const std::vector<Vec2>& pts, const std::vector<double>& w, const std::vector<int>& subset,
-               double inlier_px, int iterations, std::mt19937* rng, Line* line) {
+int RansacLine(const std::vector<Vec2>& pts, const std::vector<double>& w,
+               const std::vector<int>& subset, double inlier_px, int iterations, std::mt19937* rng,
+               Line* line) {
   const int np = static_cast<int>(subset.size());
   if (np < 2) return 0;
   std::uniform_int_distribution<int> pick(0, np - 1);
@@ -427,10 +445,11 @@ int RansacLine(const std::vector<Vec2>& pts, const std::vector<double>& w, const
   return static_cast<int>(inl.size());
 }
 
-// Sub-pixel refinement of one quad. Side i joins corners c[i-1] and c[i]; its edge points come from 1-D
-// gradient peaks along the side's normal in the (smoothed, distorted) image. Each side gets one RANSAC
-// line; when the lines fitted to its two halves disagree with it by more than `bend_px` at the corners
-// (a bent side: paper, residual distortion), each corner is taken from the half-lines next to it.
+// Sub-pixel refinement of one quad. Side i joins corners c[i-1] and c[i]; its edge points come from
+// 1-D gradient peaks along the side's normal in the (smoothed, distorted) image. Each side gets one
+// RANSAC line; when the lines fitted to its two halves disagree with it by more than `bend_px` at
+// the corners (a bent side: paper, residual distortion), each corner is taken from the half-lines
+// next to it.
 bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetectorOptions& o,
                 double min_gradient, std::mt19937* rng, Quad* q) {
   const bool distort = cam != nullptr && cam->HasDistortion();
@@ -446,7 +465,8 @@ bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetec
     const double L = (Q - P).norm();
     const Vec2 u = (Q - P) / L, n(-u.y(), u.x());
     const double margin = std::max(o.corner_margin_frac * L, 1.0);
-    const int k_samples = std::max(8, std::min(o.samples_per_side, static_cast<int>(L - 2 * margin)));
+    const int k_samples =
+        std::max(8, std::min(o.samples_per_side, static_cast<int>(L - 2 * margin)));
     pts.clear();
     w.clear();
     ts.clear();
@@ -505,13 +525,15 @@ bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetec
     const int need = static_cast<int>(std::ceil(o.min_side_support * k_samples));
     if (static_cast<int>(all.size()) < std::max(need, 2)) return false;
     Line global;
-    const int n_global = RansacLine(pts, w, all, o.ransac_inlier_px, o.ransac_iterations, rng, &global);
+    const int n_global =
+        RansacLine(pts, w, all, o.ransac_inlier_px, o.ransac_iterations, rng, &global);
     Line l1, l2;
     const int n1 = RansacLine(pts, w, first, o.ransac_inlier_px, o.ransac_iterations, rng, &l1);
     const int n2 = RansacLine(pts, w, second, o.ransac_inlier_px, o.ransac_iterations, rng, &l2);
     // Disagreement of a half-line with the global line at the corner it serves.
     auto bend_at = [&](const Line& half, const Vec2& corner) {
-      const Vec2 on_half = corner - half.Dist(corner) * half.n;  // foot of the corner on the half-line
+      const Vec2 on_half =
+          corner - half.Dist(corner) * half.n;  // foot of the corner on the half-line
       return std::abs(global.Dist(on_half));
     };
     const bool halves_ok = n1 >= std::max(2, need / 2) && n2 >= std::max(2, need / 2);
@@ -539,8 +561,9 @@ bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetec
   return true;
 }
 
-// Mean and standard deviation of the grey values on an n x n grid of the quad's interior (bilinear map
-// of the unit square, shrunk by `shrink` towards the centre) or of a ring just outside it (scale > 1).
+// Mean and standard deviation of the grey values on an n x n grid of the quad's interior (bilinear
+// map of the unit square, shrunk by `shrink` towards the centre) or of a ring just outside it
+// (scale > 1).
 void QuadStats(const cv::Mat& img, const Corners& px, double scale, double* mean, double* stddev) {
   const Vec2 centre = 0.25 * (px[0] + px[1] + px[2] + px[3]);
   double s = 0.0, s2 = 0.0;
@@ -548,9 +571,11 @@ void QuadStats(const cv::Mat& img, const Corners& px, double scale, double* mean
   const int g = 8;
   for (int i = 0; i < g; ++i)
     for (int j = 0; j < g; ++j) {
-      if (scale > 1.0 && i > 0 && i < g - 1 && j > 0 && j < g - 1) continue;  // ring: border cells only
+      if (scale > 1.0 && i > 0 && i < g - 1 && j > 0 && j < g - 1)
+        continue;  // ring: border cells only
       const double a = (i + 0.5) / g, b = (j + 0.5) / g;
-      const Vec2 p = (1 - a) * (1 - b) * px[0] + a * (1 - b) * px[1] + a * b * px[2] + (1 - a) * b * px[3];
+      const Vec2 p =
+          (1 - a) * (1 - b) * px[0] + a * (1 - b) * px[1] + a * b * px[2] + (1 - a) * b * px[3];
       const Vec2 ps = centre + scale * (p - centre);
       double v;
       if (!Bilinear(img, ps.x(), ps.y(), &v)) continue;
@@ -579,7 +604,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   const Mat3 K = camera ? camera->K() : DefaultK(gray.cols, gray.rows, o.assumed_hfov_deg);
   const PinholeRadtan* cam = camera && camera->HasDistortion() ? camera : nullptr;
 
-  // 1. edges: light smoothing (σ = 1 px) against pixel noise, Sobel, Canny with data-driven thresholds.
+  // 1. edges: light smoothing (σ = 1 px) against pixel noise, Sobel, Canny with data-driven
+  // thresholds.
   cv::Mat smooth, edges;
   cv::GaussianBlur(gray, smooth, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
   CannyThresholds(smooth, o, &res.canny_low, &res.canny_high);
@@ -589,8 +615,9 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   // 2. segments: edge chains split into straight pieces, each fitted by least squares.
   const int min_seg = std::max(4, static_cast<int>(std::lround(o.min_segment_frac * diag)));
   std::vector<std::pair<Vec2, Vec2>> raw;
-  // Pieces down to a third of the minimum length are kept for merging: a chain that runs into another
-  // edge takes a stretch of it, leaving short pieces of a long side that merging joins again.
+  // Pieces down to a third of the minimum length are kept for merging: a chain that runs into
+  // another edge takes a stretch of it, leaving short pieces of a long side that merging joins
+  // again.
   const int min_piece = std::max(6, min_seg / 3);
   for (const auto& chain : TraceChains(edges, min_piece))
     SplitChain(chain, 0, static_cast<int>(chain.size()) - 1, o.segment_fit_px, min_piece, &raw);
@@ -620,7 +647,9 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     segs.push_back(MakeSeg(a, b));
   }
   segs = MergeCollinear(segs, o.merge_angle_deg, o.merge_line_px, o.merge_gap_frac * diag);
-  segs.erase(std::remove_if(segs.begin(), segs.end(), [&](const Seg& sg) { return sg.len < min_seg; }), segs.end());
+  segs.erase(
+      std::remove_if(segs.begin(), segs.end(), [&](const Seg& sg) { return sg.len < min_seg; }),
+      segs.end());
   res.segments = static_cast<int>(segs.size());
   for (const Seg& sg : segs) res.segment_ends.emplace_back(sg.a, sg.b);
   res.times.Add("segments", sw.Lap());
@@ -633,13 +662,16 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   const double min_sin = std::sin(o.min_corner_angle_deg * M_PI / 180.0);
   for (int i = 0; i < ns; ++i)
     for (int j = i + 1; j < ns; ++j) {
-      const double s = std::abs(segs[i].dir.x() * segs[j].dir.y() - segs[i].dir.y() * segs[j].dir.x());
+      const double s =
+          std::abs(segs[i].dir.x() * segs[j].dir.y() - segs[i].dir.y() * segs[j].dir.x());
       if (s < min_sin) continue;
       // Cheap rejection: the nearest endpoints must be within reach of both junction tolerances.
-      const double reach = (o.junction_gap_frac + o.junction_overshoot_frac) * (segs[i].len + segs[j].len) +
-                           2.0 * o.junction_slack_px;
-      const double dmin2 = std::min({(segs[i].a - segs[j].a).squaredNorm(), (segs[i].a - segs[j].b).squaredNorm(),
-                                     (segs[i].b - segs[j].a).squaredNorm(), (segs[i].b - segs[j].b).squaredNorm()});
+      const double reach =
+          (o.junction_gap_frac + o.junction_overshoot_frac) * (segs[i].len + segs[j].len) +
+          2.0 * o.junction_slack_px;
+      const double dmin2 =
+          std::min({(segs[i].a - segs[j].a).squaredNorm(), (segs[i].a - segs[j].b).squaredNorm(),
+                    (segs[i].b - segs[j].a).squaredNorm(), (segs[i].b - segs[j].b).squaredNorm()});
       if (dmin2 > reach * reach) continue;
       Vec2 x;
       if (!Intersect(seg_lines[i], seg_lines[j], &x)) continue;
@@ -676,7 +708,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   for (const Quad& q : quads) res.hypothesis_quads.push_back(q.c);
   res.times.Add("group", sw.Lap());
 
-  // 4. refinement (with a cheap rectangle pre-test at twice the tolerance on the hypothesis corners).
+  // 4. refinement (with a cheap rectangle pre-test at twice the tolerance on the hypothesis
+  // corners).
   std::mt19937 rng(o.seed);
   const double min_gradient = res.canny_low / 8.0;  // Sobel magnitude ≈ 8 x (grey levels per px)
   std::vector<Quad> refined;
@@ -706,7 +739,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   res.times.Add("verify", sw.Lap());
 
   // 6. suppression: duplicates keep the best score, concentric nesting keeps the outer outline.
-  std::stable_sort(good.begin(), good.end(), [](const Quad& x, const Quad& y) { return x.score > y.score; });
+  std::stable_sort(good.begin(), good.end(),
+                   [](const Quad& x, const Quad& y) { return x.score > y.score; });
   std::vector<Quad> kept;
   for (const Quad& q : good) {
     bool drop = false;
@@ -747,14 +781,16 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
         break;
       }
       // Alternatives for one object: nested quads sharing two adjacent corners differ only in which
-      // parallel line closes them (a board's top edge or the row of tags below it): best score wins.
+      // parallel line closes them (a board's top edge or the row of tags below it): best score
+      // wins.
       int shift = 0;
       CornerDistanceBestShift(q.c, k.c, &shift);
       int shared_adjacent = 0;
       for (int i = 0; i < 4; ++i)
         shared_adjacent = std::max(
-            shared_adjacent, static_cast<int>((q.c[i] - k.c[(i + shift) % 4]).norm() <= dup_tol &&
-                                              (q.c[(i + 1) % 4] - k.c[(i + 1 + shift) % 4]).norm() <= dup_tol));
+            shared_adjacent,
+            static_cast<int>((q.c[i] - k.c[(i + shift) % 4]).norm() <= dup_tol &&
+                             (q.c[(i + 1) % 4] - k.c[(i + 1 + shift) % 4]).norm() <= dup_tol));
       if (shared_adjacent) {
         drop = true;  // k scores at least as high (processing in score order)
         break;
@@ -762,10 +798,10 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     }
     if (!drop) kept.push_back(q);
   }
-  // Replacing may have created duplicates among kept ones; remove exact repeats. (A second pass that
-  // drops every quad nested in a kept outer one was tried: on the rendered default room it lowered
-  // precision from 0.57 to 0.52, because the rendered tags' ground truth is the black square inside
-  // the white margin, and on the EuRoC board it picked the board's side face.)
+  // Replacing may have created duplicates among kept ones; remove exact repeats. (A second pass
+  // that drops every quad nested in a kept outer one was tried: on the rendered default room it
+  // lowered precision from 0.57 to 0.52, because the rendered tags' ground truth is the black
+  // square inside the white margin, and on the EuRoC board it picked the board's side face.)
   std::vector<Quad> unique;
   for (const Quad& q : kept) {
     bool dup = false;
@@ -773,8 +809,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     if (!dup) unique.push_back(q);
   }
   if (o.drop_contained) {
-    // One object per outer rectangle: drop quads lying inside another kept quad (panes, door panels,
-    // the pattern squares of a tag), with a 2 px margin for shared sides.
+    // One object per outer rectangle: drop quads lying inside another kept quad (panes, door
+    // panels, the pattern squares of a tag), with a 2 px margin for shared sides.
     std::vector<Quad> outer_only;
     for (const Quad& q : unique) {
       bool contained = false;
@@ -794,7 +830,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     }
     unique.swap(outer_only);
   }
-  if (o.max_detections > 0 && static_cast<int>(unique.size()) > o.max_detections) unique.resize(o.max_detections);
+  if (o.max_detections > 0 && static_cast<int>(unique.size()) > o.max_detections)
+    unique.resize(o.max_detections);
 
   for (const Quad& q : unique) {
     Detection det;
@@ -802,21 +839,24 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     for (int i = 0; i < 4; ++i) det.corners_px[i] = cam ? cam->DistortPixel(q.c[i]) : q.c[i];
     det.score = q.score;
     if (o.guess_class) {
-      // Class cues (see README of the front end): metric aspect h/w from Zhang-He, brightness against the
-      // surroundings, interior texture. Statistics on the smoothed image at the distorted corners.
+      // Class cues (see README of the front end): metric aspect h/w from Zhang-He, brightness
+      // against the surroundings, interior texture. Statistics on the smoothed image at the
+      // distorted corners.
       double in_mean, in_std, out_mean, out_std;
       QuadStats(smooth, det.corners_px, 0.8, &in_mean, &in_std);
       QuadStats(smooth, det.corners_px, 1.25, &out_mean, &out_std);
       const double h_over_w = 1.0 / q.aspect_w_h;
       //  - door: tall (metric h/w 1.7..3.2), not strongly textured;
-      //  - window: much brighter than its surroundings (> 30 grey levels: daylight; mullions allowed);
+      //  - window: much brighter than its surroundings (> 30 grey levels: daylight; mullions
+      //  allowed);
       //  - poster: otherwise a strongly textured interior (grey-level std > 30: print, pattern);
       //    (a white calibration board on a dark background is therefore called a window);
       //  - cabinet is never guessed from one image (a cabinet front looks like a wall panel);
       //  - otherwise unknown.
       if (h_over_w >= 1.7 && h_over_w <= 3.2 && in_std < 40.0) {
         det.object_class = ObjectClass::kDoor;
-      } else if (out_mean >= 0.0 && in_mean - out_mean > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) {
+      } else if (out_mean >= 0.0 && in_mean - out_mean > 30.0 && h_over_w >= 0.4 &&
+                 h_over_w <= 2.5) {
         det.object_class = ObjectClass::kWindow;
       } else if (in_std > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) {
         det.object_class = ObjectClass::kPoster;

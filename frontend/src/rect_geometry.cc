@@ -30,7 +30,8 @@ RectangleTest ZhangHeTest(const Corners& px, const Mat3& K) {
 }
 
 Mat3 DefaultK(int width, int height, double hfov_deg) {
-  // fx = (W/2) / tan(hfov/2); square pixels; principal point at the image centre (pixel-centre convention).
+  // fx = (W/2) / tan(hfov/2); square pixels; principal point at the image centre (pixel-centre
+  // convention).
   const double f = 0.5 * width / std::tan(0.5 * hfov_deg * M_PI / 180.0);
   Mat3 K;
   K << f, 0.0, 0.5 * (width - 1), 0.0, f, 0.5 * (height - 1), 0.0, 0.0, 1.0;
@@ -48,7 +49,9 @@ double SignedArea(const Corners& c) {
 }
 
 namespace {
-double Cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+double Cross2(const Vec2& a, const Vec2& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
 }  // namespace
 
 bool IsConvex(const Corners& c) {

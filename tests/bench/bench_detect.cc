@@ -1,11 +1,12 @@
-// Detection speed on one core (cv::setNumThreads(1), libapriltag threads = 1), median over repetitions,
-// with the mean time of every pipeline stage as counters (ms).
+// Detection speed on one core (cv::setNumThreads(1), libapriltag threads = 1), median over
+// repetitions, with the mean time of every pipeline stage as counters (ms).
 //
 //   bench_detect [--benchmark_repetitions=N] [Google Benchmark flags]
 //
-// Frames: the synthetic 640x480 frame of the tests (4 rectangles), and -- when the shared test data is
-// found ($FSP_TEST_DATA or ../shared/data) -- a 640x480 crop of a real EuRoC in-flight frame (board,
-// door, windows, clutter) and an AprilTag photo of the apriltag repository (799x533, 12 tags).
+// Frames: the synthetic 640x480 frame of the tests (4 rectangles), and -- when the shared test data
+// is found ($FSP_TEST_DATA or ../shared/data) -- a 640x480 crop of a real EuRoC in-flight frame
+// (board, door, windows, clutter) and an AprilTag photo of the apriltag repository (799x533, 12
+// tags).
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -53,7 +54,8 @@ void BM_RectSynthetic640(benchmark::State& state) {
 BENCHMARK(BM_RectSynthetic640)->Unit(benchmark::kMillisecond);
 
 void BM_RectEuroc640(benchmark::State& state) {
-  const std::string path = DataDir() + "/euroc_v101_micro/inflight_frames_kimera_lcd/left_img_3.png";
+  const std::string path =
+      DataDir() + "/euroc_v101_micro/inflight_frames_kimera_lcd/left_img_3.png";
   if (!std::filesystem::exists(path)) {
     state.SkipWithError("shared test data not found (set FSP_TEST_DATA)");
     return;

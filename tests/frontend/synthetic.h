@@ -1,6 +1,7 @@
-// Synthetic test frames for the detectors: rectangles with exactly known corners, drawn with OpenCV at
-// 8x resolution (sub-pixel polygon fill), averaged down (INTER_AREA), blurred and given seeded Gaussian
-// noise. Straight edges stay straight under a homography, so filling the projected polygon is exact.
+// Synthetic test frames for the detectors: rectangles with exactly known corners, drawn with OpenCV
+// at 8x resolution (sub-pixel polygon fill), averaged down (INTER_AREA), blurred and given seeded
+// Gaussian noise. Straight edges stay straight under a homography, so filling the projected polygon
+// is exact.
 #pragma once
 
 #include <random>
@@ -19,13 +20,14 @@ struct SyntheticRect {
 };
 
 struct SyntheticFrame {
-  cv::Mat image;                    // CV_8UC1
+  cv::Mat image;  // CV_8UC1
   std::vector<SyntheticRect> rects;
 };
 
 // Draws the quads (in order, later ones on top) over a background with a smooth intensity gradient.
-inline cv::Mat RenderQuads(int width, int height, const std::vector<SyntheticRect>& rects, double blur_sigma,
-                           double noise_sigma, uint32_t seed, int background = 90) {
+inline cv::Mat RenderQuads(int width, int height, const std::vector<SyntheticRect>& rects,
+                           double blur_sigma, double noise_sigma, uint32_t seed,
+                           int background = 90) {
   constexpr int kSuper = 8;
   constexpr int kShift = 4;  // fillConvexPoly sub-pixel bits
   cv::Mat hi(height * kSuper, width * kSuper, CV_8UC1);
@@ -55,16 +57,17 @@ inline cv::Mat RenderQuads(int width, int height, const std::vector<SyntheticRec
   return out;
 }
 
-// Corners of a w x h rectangle (s1 at the origin, x along the width, y UP) centred at `centre` [m] in
-// the camera frame after rotating by (roll about the normal, yaw about the vertical, pitch about x),
-// projected with a pinhole (f, cx, cy). Returned in s1..s4 order.
-inline Corners ProjectRect(double w, double h, const Vec3& centre, double yaw, double pitch, double roll,
-                           double f, double cx, double cy) {
+// Corners of a w x h rectangle (s1 at the origin, x along the width, y UP) centred at `centre` [m]
+// in the camera frame after rotating by (roll about the normal, yaw about the vertical, pitch about
+// x), projected with a pinhole (f, cx, cy). Returned in s1..s4 order.
+inline Corners ProjectRect(double w, double h, const Vec3& centre, double yaw, double pitch,
+                           double roll, double f, double cx, double cy) {
   const Mat3 R = (Eigen::AngleAxisd(yaw, Vec3::UnitY()) * Eigen::AngleAxisd(pitch, Vec3::UnitX()) *
                   Eigen::AngleAxisd(roll, Vec3::UnitZ()))
                      .toRotationMatrix();
   // Object axes in the camera frame (y down): x right, "up" is −y.
-  const Vec3 s[4] = {Vec3(-w / 2, h / 2, 0), Vec3(w / 2, h / 2, 0), Vec3(w / 2, -h / 2, 0), Vec3(-w / 2, -h / 2, 0)};
+  const Vec3 s[4] = {Vec3(-w / 2, h / 2, 0), Vec3(w / 2, h / 2, 0), Vec3(w / 2, -h / 2, 0),
+                     Vec3(-w / 2, -h / 2, 0)};
   Corners c;
   for (int i = 0; i < 4; ++i) {
     const Vec3 p = centre + R * s[i];
@@ -73,9 +76,10 @@ inline Corners ProjectRect(double w, double h, const Vec3& centre, double yaw, d
   return c;
 }
 
-// A 640x480 frame with a few rectangles under perspective (f = 500 px): a door, a window, a poster and
-// a panel, of different contrasts. Deterministic for a seed.
-inline SyntheticFrame MakeSyntheticFrame(uint32_t seed, double blur_sigma = 0.8, double noise_sigma = 2.0) {
+// A 640x480 frame with a few rectangles under perspective (f = 500 px): a door, a window, a poster
+// and a panel, of different contrasts. Deterministic for a seed.
+inline SyntheticFrame MakeSyntheticFrame(uint32_t seed, double blur_sigma = 0.8,
+                                         double noise_sigma = 2.0) {
   const double f = 500.0, cx = 319.5, cy = 239.5;
   SyntheticFrame fr;
   fr.rects.push_back({ProjectRect(0.9, 2.0, Vec3(-1.0, 0.1, 4.0), 0.35, 0.0, 0.0, f, cx, cy), 150});

@@ -1,5 +1,5 @@
-// AprilTag front end: the reference corners of the apriltag repository's own regression photos, and a
-// synthetic upright tag that pins the s1..s4 order and the 0.5 px offset.
+// AprilTag front end: the reference corners of the apriltag repository's own regression photos, and
+// a synthetic upright tag that pins the s1..s4 order and the 0.5 px offset.
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -33,7 +33,8 @@ std::vector<RefTag> ReadReference(const std::string& path) {
   std::ifstream in(path);
   std::vector<RefTag> out;
   std::string line;
-  const std::regex re(R"(\s*(\d+)\s*,\s*\(([-\d.]+)\s+([-\d.]+)\)\s*,\s*\(([-\d.]+)\s+([-\d.]+)\)\s*,\s*\(([-\d.]+)\s+([-\d.]+)\)\s*,\s*\(([-\d.]+)\s+([-\d.]+)\)\s*)");
+  const std::regex re(
+      R"(\s*(\d+)\s*,\s*\(([-\d.]+)\s+([-\d.]+)\)\s*,\s*\(([-\d.]+)\s+([-\d.]+)\)\s*,\s*\(([-\d.]+)\s+([-\d.]+)\)\s*,\s*\(([-\d.]+)\s+([-\d.]+)\)\s*)");
   while (std::getline(in, line)) {
     std::smatch m;
     if (!std::regex_match(line, m, re)) continue;
@@ -47,12 +48,14 @@ std::vector<RefTag> ReadReference(const std::string& path) {
 
 TEST(AprilTag, UmichPhotosMatchTheReferenceCorners) {
   FSP_REQUIRE_TEST_DATA(dir, "apriltag_umich_test");
-  // The reference's settings (upstream test/test_detection.c): tag36h11, decimate 1, no edge refinement.
+  // The reference's settings (upstream test/test_detection.c): tag36h11, decimate 1, no edge
+  // refinement.
   AprilTagDetector::Options o;
   o.decimate = 1.0;
   o.refine_edges = false;
   AprilTagDetector det(o);
-  const char* names[] = {"33369213973_9d9bb4cc96_c", "34085369442_304b6bafd9_c", "34139872896_defdb2f8d9_c"};
+  const char* names[] = {"33369213973_9d9bb4cc96_c", "34085369442_304b6bafd9_c",
+                         "34139872896_defdb2f8d9_c"};
   int total = 0;
   double worst = 0.0;
   for (const char* name : names) {
@@ -67,16 +70,19 @@ TEST(AprilTag, UmichPhotosMatchTheReferenceCorners) {
       for (const auto& d : res.detections) {
         if (d.tag_id != r.id) continue;
         double e = 0.0;
-        for (int i = 0; i < 4; ++i) e = std::max(e, (d.corners_px[i] + Vec2(0.5, 0.5) - r.p[i]).norm());
+        for (int i = 0; i < 4; ++i)
+          e = std::max(e, (d.corners_px[i] + Vec2(0.5, 0.5) - r.p[i]).norm());
         best = std::min(best, e);
       }
-      // 0.2 px: the reference decoded the JPEGs with apriltag's own decoder (README.txt: up to 0.14 px).
+      // 0.2 px: the reference decoded the JPEGs with apriltag's own decoder (README.txt: up to 0.14
+      // px).
       EXPECT_LE(best, 0.2) << name << " tag at " << r.p[0].transpose();
       worst = std::max(worst, best);
     }
   }
   EXPECT_EQ(total, 47);
-  std::printf("apriltag umich: %d tags, worst corner distance to reference %.3f px\n", total, worst);
+  std::printf("apriltag umich: %d tags, worst corner distance to reference %.3f px\n", total,
+              worst);
 }
 
 // Renders tag36h11 id `id` (libapriltag's own pattern) upright under a mild perspective and returns
@@ -87,10 +93,13 @@ cv::Mat RenderTag(int id, const std::array<Vec2, 4>& pattern_corners_px, Corners
   const int n = pat->width;  // total_width cells (10 for tag36h11), border square spans [b, n - b]
   const int b = (n - tf->width_at_border) / 2;
   // Homography from pattern coordinates (cell edges, x right, y down, [0, n]) to image pixels.
-  const std::vector<cv::Point2f> src = {{0.f, static_cast<float>(n)}, {static_cast<float>(n), static_cast<float>(n)},
-                                        {static_cast<float>(n), 0.f}, {0.f, 0.f}};
+  const std::vector<cv::Point2f> src = {{0.f, static_cast<float>(n)},
+                                        {static_cast<float>(n), static_cast<float>(n)},
+                                        {static_cast<float>(n), 0.f},
+                                        {0.f, 0.f}};
   std::vector<cv::Point2f> dst;
-  for (const auto& c : pattern_corners_px) dst.emplace_back(static_cast<float>(c.x()), static_cast<float>(c.y()));
+  for (const auto& c : pattern_corners_px)
+    dst.emplace_back(static_cast<float>(c.x()), static_cast<float>(c.y()));
   const cv::Mat H = cv::getPerspectiveTransform(src, dst);
   auto map = [&](double x, double y) {
     const cv::Mat p = H * (cv::Mat_<double>(3, 1) << x, y, 1.0);
@@ -105,7 +114,8 @@ cv::Mat RenderTag(int id, const std::array<Vec2, 4>& pattern_corners_px, Corners
       cells.push_back(r);
     }
   *tag_corners = {map(b, n - b), map(n - b, n - b), map(n - b, b), map(b, b)};
-  // image_u8_destroy is not exported by the Debian libapriltag; the image is a calloc'd struct + buffer.
+  // image_u8_destroy is not exported by the Debian libapriltag; the image is a calloc'd struct +
+  // buffer.
   free(pat->buf);
   free(pat);
   tag36h11_destroy(tf);
@@ -114,8 +124,8 @@ cv::Mat RenderTag(int id, const std::array<Vec2, 4>& pattern_corners_px, Corners
 
 TEST(AprilTag, UprightTagCornersAreS1ToS4WithoutTheHalfPixelOffset) {
   Corners truth;
-  const cv::Mat img =
-      RenderTag(5, {Vec2(212.3, 371.8), Vec2(431.6, 362.2), Vec2(418.9, 141.4), Vec2(221.7, 120.5)}, &truth);
+  const cv::Mat img = RenderTag(
+      5, {Vec2(212.3, 371.8), Vec2(431.6, 362.2), Vec2(418.9, 141.4), Vec2(221.7, 120.5)}, &truth);
   AprilTagDetector::Options o;
   o.decimate = 1.0;
   o.refine_edges = true;
@@ -124,8 +134,10 @@ TEST(AprilTag, UprightTagCornersAreS1ToS4WithoutTheHalfPixelOffset) {
   const Detection& d = res.detections[0];
   EXPECT_EQ(d.tag_id, 5);
   EXPECT_EQ(d.object_class, ObjectClass::kTag);
-  for (int i = 0; i < 4; ++i) EXPECT_LT((d.corners_px[i] - truth[i]).norm(), 0.2) << "corner s" << i + 1;
-  // s1..s4 of an upright tag: bottom-left, bottom-right, top-right, top-left (counter-clockwise on screen).
+  for (int i = 0; i < 4; ++i)
+    EXPECT_LT((d.corners_px[i] - truth[i]).norm(), 0.2) << "corner s" << i + 1;
+  // s1..s4 of an upright tag: bottom-left, bottom-right, top-right, top-left (counter-clockwise on
+  // screen).
   EXPECT_LT(SignedArea(d.corners_px), 0.0);
   EXPECT_GT(d.corners_px[0].y(), d.corners_px[3].y());
   EXPECT_LT(d.corners_px[0].x(), d.corners_px[1].x());

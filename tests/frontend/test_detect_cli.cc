@@ -11,7 +11,9 @@
 namespace fsp::test {
 namespace {
 
-int CountLines(const std::string& text) { return static_cast<int>(std::count(text.begin(), text.end(), '\n')); }
+int CountLines(const std::string& text) {
+  return static_cast<int>(std::count(text.begin(), text.end(), '\n'));
+}
 
 std::string Slurp(const std::filesystem::path& p) {
   std::ifstream in(p);
@@ -24,7 +26,8 @@ TEST(DetectCli, WritesCsvAndDrawnPng) {
   const auto dir = ScratchDir();
   const SyntheticFrame fr = MakeSyntheticFrame(4);
   cv::imwrite((dir / "frame.png").string(), fr.image);
-  const auto r = RunFsp("detect " + (dir / "frame.png").string() + " --out " + (dir / "out").string());
+  const auto r =
+      RunFsp("detect " + (dir / "frame.png").string() + " --out " + (dir / "out").string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(CountLines(r.out), 1) << r.out;  // one summary line per image
   EXPECT_NE(r.out.find("4 rectangles"), std::string::npos) << r.out;

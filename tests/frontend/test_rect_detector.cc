@@ -17,8 +17,8 @@ namespace fsp::frontend {
 namespace {
 
 // Corner errors of the best-matching detection per ground-truth quad, in s1..s4 order (no shift).
-std::vector<double> CornerErrors(const std::vector<Detection>& dets, const std::vector<test::SyntheticRect>& gt,
-                                 int* found) {
+std::vector<double> CornerErrors(const std::vector<Detection>& dets,
+                                 const std::vector<test::SyntheticRect>& gt, int* found) {
   std::vector<double> errs;
   *found = 0;
   for (const auto& g : gt) {
@@ -58,7 +58,8 @@ TEST(RectDetector, SubPixelCornersOnSyntheticFrames) {
   ASSERT_FALSE(all.empty());
   const double med = Median(all);
   const double worst = *std::max_element(all.begin(), all.end());
-  std::printf("synthetic: %zu corners, median error %.3f px, max %.3f px\n", all.size(), med, worst);
+  std::printf("synthetic: %zu corners, median error %.3f px, max %.3f px\n", all.size(), med,
+              worst);
   EXPECT_LE(med, 0.3);
   EXPECT_LE(worst, 1.0);
 }
@@ -106,7 +107,8 @@ TEST(RectDetector, DistortedImageGivesStraightUndistortedSides) {
   EXPECT_LE(Median(errs), 0.3);
   // corners_px are the distorted positions of the same corners.
   for (const auto& d : with.detections)
-    for (int i = 0; i < 4; ++i) EXPECT_LT((cam.DistortPixel(d.corners_undistorted[i]) - d.corners_px[i]).norm(), 1e-6);
+    for (int i = 0; i < 4; ++i)
+      EXPECT_LT((cam.DistortPixel(d.corners_undistorted[i]) - d.corners_px[i]).norm(), 1e-6);
 }
 
 TEST(RectDetector, BlankAndNoiseImagesGiveNothing) {
@@ -122,7 +124,8 @@ TEST(RectDetector, DeterministicAcrossCalls) {
   const auto a = det.Detect(fr.image), b = det.Detect(fr.image);
   ASSERT_EQ(a.detections.size(), b.detections.size());
   for (size_t i = 0; i < a.detections.size(); ++i)
-    for (int k = 0; k < 4; ++k) EXPECT_EQ(a.detections[i].corners_px[k], b.detections[i].corners_px[k]);
+    for (int k = 0; k < 4; ++k)
+      EXPECT_EQ(a.detections[i].corners_px[k], b.detections[i].corners_px[k]);
 }
 
 TEST(RectDetector, OptionsCheck) {
@@ -183,7 +186,8 @@ TEST(RectDetector, GoldenFrame) {
   EXPECT_LE(Median(errs), 0.3);
 }
 
-// Writes the golden files (run by hand: --gtest_also_run_disabled_tests --gtest_filter=*WriteGolden*).
+// Writes the golden files (run by hand: --gtest_also_run_disabled_tests
+// --gtest_filter=*WriteGolden*).
 TEST(RectDetector, DISABLED_WriteGolden) {
   const test::SyntheticFrame fr = test::MakeSyntheticFrame(2024);
   const std::string dir = FSP_FRONTEND_TEST_DATA;
@@ -205,23 +209,28 @@ namespace fsp::frontend {
 namespace {
 
 // Statistics on a short piece of the default rendered room (rendered by `fsp render`, with its
-// calibration, distortion and pixel noise). Pins the current level; see the report in the front end's
-// notes for the known gap: a rendered AprilTag has a white margin outside its black square, and the
-// nesting rule reports the outer (margin) outline, while the ground truth is the black square, so every
-// tag counts as one miss and one false positive (windows, doors and posters are found).
+// calibration, distortion and pixel noise). Pins the current level; see the report in the front
+// end's notes for the known gap: a rendered AprilTag has a white margin outside its black square,
+// and the nesting rule reports the outer (margin) outline, while the ground truth is the black
+// square, so every tag counts as one miss and one false positive (windows, doors and posters are
+// found).
 TEST(RectDetector, RenderedDefaultRoomStatistics) {
   const auto dir = test::ScratchDir();
   const std::string scene = std::string(FSP_SOURCE_DIR) + "/assets/scenes/default_room.yaml";
-  const auto r = test::RunFsp("render " + scene + " --out " + (dir / "seq").string() + " --duration 4 --no-video");
+  const auto r = test::RunFsp("render " + scene + " --out " + (dir / "seq").string() +
+                              " --duration 4 --no-video");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const Calibration calib = ReadCalibration((dir / "seq" / "calib.yaml").string());
   RectDetector det;
-  const MatchStats s = EvaluateSequence(
-      (dir / "seq").string(), [&](const cv::Mat& g) { return det.Detect(g, &calib.camera).detections; });
-  std::printf("rendered room 4 s: %d frames, recall %.3f (%d/%d), precision %.3f (%d/%d), corner error median %.3f px, "
-              "p90 %.3f px, order mismatches %d\n",
-              s.frames, s.Recall(), s.gt_eligible_found, s.gt_eligible, s.Precision(), s.true_positives, s.detections,
-              s.ErrorQuantile(0.5), s.ErrorQuantile(0.9), s.order_mismatches);
+  const MatchStats s = EvaluateSequence((dir / "seq").string(), [&](const cv::Mat& g) {
+    return det.Detect(g, &calib.camera).detections;
+  });
+  std::printf(
+      "rendered room 4 s: %d frames, recall %.3f (%d/%d), precision %.3f (%d/%d), corner error "
+      "median %.3f px, "
+      "p90 %.3f px, order mismatches %d\n",
+      s.frames, s.Recall(), s.gt_eligible_found, s.gt_eligible, s.Precision(), s.true_positives,
+      s.detections, s.ErrorQuantile(0.5), s.ErrorQuantile(0.9), s.order_mismatches);
   EXPECT_GT(s.gt_eligible, 50);
   EXPECT_LE(s.ErrorQuantile(0.5), 0.3);
   EXPECT_LE(s.ErrorQuantile(0.9), 1.0);

@@ -36,18 +36,21 @@ TEST(CanonicalOrder, ImagePositionWithoutGravity) {
       for (int i = 0; i < 4; ++i) in[i] = expected[(i + shift) % 4];
       if (reverse) std::swap(in[1], in[3]);
       const Corners out = CanonicalOrder(in);
-      for (int i = 0; i < 4; ++i) EXPECT_LT((out[i] - expected[i]).norm(), 1e-12) << shift << reverse << i;
+      for (int i = 0; i < 4; ++i)
+        EXPECT_LT((out[i] - expected[i]).norm(), 1e-12) << shift << reverse << i;
     }
   EXPECT_LT(SignedArea(expected), 0.0);  // s1..s4 is counter-clockwise on screen
 }
 
 TEST(CanonicalOrder, GravityDecidesForARolledCamera) {
-  // Camera rolled by 90 deg: gravity points along image +x. The object's bottom is then on the right.
+  // Camera rolled by 90 deg: gravity points along image +x. The object's bottom is then on the
+  // right.
   const Mat3 K = DefaultK(640, 480, 60.0);
   const Vec3 g_C(9.81, 0.0, 0.0);
   const Corners in = {Vec2(200, 100), Vec2(400, 100), Vec2(400, 300), Vec2(200, 300)};
   const Corners out = CanonicalOrder(in, &K, &g_C);
-  // "down" = +x: s1 (bottom-left) is the right-bottom... the height edges s4->s1, s3->s2 point along +x.
+  // "down" = +x: s1 (bottom-left) is the right-bottom... the height edges s4->s1, s3->s2 point
+  // along +x.
   EXPECT_GT((out[0] - out[3]).x(), 100.0);
   EXPECT_GT((out[1] - out[2]).x(), 100.0);
   EXPECT_LT(SignedArea(out), 0.0);

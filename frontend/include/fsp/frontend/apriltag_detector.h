@@ -4,10 +4,10 @@
 // bottom-left corner, which for an upright tag is s1..s4 (DESIGN.md §2), so the tag's decoded
 // orientation fixes the order (not the image position). libapriltag's pixel coordinates put the
 // centre of pixel (0,0) at (0.5, 0.5); 0.5 is subtracted so integer = pixel centre (OpenCV).
-// tag_id = the decoded id; object_class = kTag; score = decision margin / (decision margin + 50), in
-// [0, 1). corners_undistorted are the corners undistorted with the calibration (if given): the quad
-// fit runs on the distorted image, so the undistorted corners of a strongly distorted, large tag carry
-// the curvature error of its straight-edge fit.
+// tag_id = the decoded id; object_class = kTag; score = decision margin / (decision margin + 50),
+// in [0, 1). corners_undistorted are the corners undistorted with the calibration (if given): the
+// quad fit runs on the distorted image, so the undistorted corners of a strongly distorted, large
+// tag carry the curvature error of its straight-edge fit.
 #pragma once
 
 #include <memory>
@@ -31,7 +31,8 @@ struct AprilTagDetectorOptions {
   double decimate = 2.0;
   // Gaussian blur before quad detection [px]; 0 = none. Helps on noisy images, hurts tiny tags.
   double sigma = 0.0;
-  // Snap the quad's edges to strong gradients of the full-resolution image (recommended with decimate).
+  // Snap the quad's edges to strong gradients of the full-resolution image (recommended with
+  // decimate).
   bool refine_edges = true;
   // Decoding sharpening (libapriltag's decode_sharpening) [-].
   double decode_sharpening = 0.25;
@@ -50,7 +51,8 @@ class AprilTagDetector {
 
   struct Result {
     std::vector<Detection> detections;
-    StageTimes times;  // "apriltag" (quads, decode; the library does not expose its stages) and "convert"
+    StageTimes
+        times;  // "apriltag" (quads, decode; the library does not expose its stages) and "convert"
   };
 
   // Throws InputError when the family name is unknown; FSP_CHECKs the other options.
@@ -59,8 +61,8 @@ class AprilTagDetector {
   AprilTagDetector(const AprilTagDetector&) = delete;
   AprilTagDetector& operator=(const AprilTagDetector&) = delete;
 
-  // 8-bit grey image (CV_8UC1). `camera` (optional) only undistorts the corners. Not thread-safe: one
-  // detector per thread.
+  // 8-bit grey image (CV_8UC1). `camera` (optional) only undistorts the corners. Not thread-safe:
+  // one detector per thread.
   Result Detect(const cv::Mat& gray, const PinholeRadtan* camera = nullptr) const;
 
   const Options& options() const { return options_; }

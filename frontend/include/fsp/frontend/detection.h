@@ -1,12 +1,14 @@
 // What a detector returns for one image, and per-stage timing.
 //
 // Two pixel frames (see common/camera.h):
-//  - corners_px: DISTORTED pixels, i.e. positions in the image file as stored (what `fsp detect` writes
+//  - corners_px: DISTORTED pixels, i.e. positions in the image file as stored (what `fsp detect`
+//  writes
 //    to detections.csv and draws);
-//  - corners_undistorted: undistorted pixels (same K, no lens distortion), what the back end consumes
+//  - corners_undistorted: undistorted pixels (same K, no lens distortion), what the back end
+//  consumes
 //    (ObjectObservation.corners). Without a calibration both are identical.
-// Corner order is s1..s4 (DESIGN.md §2): bottom-left, bottom-right, top-right, top-left of the object seen
-// from the front. Pixels follow OpenCV: integer coordinates are pixel centres.
+// Corner order is s1..s4 (DESIGN.md §2): bottom-left, bottom-right, top-right, top-left of the
+// object seen from the front. Pixels follow OpenCV: integer coordinates are pixel centres.
 #pragma once
 
 #include <string>
@@ -22,9 +24,10 @@ struct Detection {
   ObjectClass object_class = ObjectClass::kUnknown;  // class guess (kTag for AprilTags)
   Corners corners_px;                                // s1..s4, DISTORTED image pixels
   Corners corners_undistorted;                       // s1..s4, undistorted pixels
-  double score = 0.0;                                // confidence in [0, 1] (edge support, decode margin)
+  double score = 0.0;  // confidence in [0, 1] (edge support, decode margin)
 
-  // The back end's type: undistorted corners; object_id = tag_id (-1 until association assigns one).
+  // The back end's type: undistorted corners; object_id = tag_id (-1 until association assigns
+  // one).
   ObjectObservation ToObservation(int64_t t_ns) const;
 };
 

@@ -28,20 +28,21 @@ struct MatchOptions {
 
 struct MatchStats {
   int frames = 0;
-  int gt_eligible = 0;          // GT quads counted for recall
-  int gt_eligible_found = 0;    // ... that a detection matched
+  int gt_eligible = 0;        // GT quads counted for recall
+  int gt_eligible_found = 0;  // ... that a detection matched
   int detections = 0;
-  int true_positives = 0;       // detections that match any GT quad (visible at all, any size)
-  int order_mismatches = 0;     // matches whose best cyclic shift was not 0 (s1..s4 order differs)
-  std::vector<double> corner_err_px;  // per corner of each eligible match (best shift)
-  double Recall() const;        // gt_eligible_found / gt_eligible (1 when there is none)
-  double Precision() const;     // true_positives / detections (1 when there is none)
+  int true_positives = 0;    // detections that match any GT quad (visible at all, any size)
+  int order_mismatches = 0;  // matches whose best cyclic shift was not 0 (s1..s4 order differs)
+  std::vector<double> corner_err_px;     // per corner of each eligible match (best shift)
+  double Recall() const;                 // gt_eligible_found / gt_eligible (1 when there is none)
+  double Precision() const;              // true_positives / detections (1 when there is none)
   double ErrorQuantile(double q) const;  // e.g. 0.5 median, 0.9 p90; NaN when empty
   void Merge(const MatchStats& other);
 };
 
 // Scores one frame: detections' corners_undistorted against the frame's GT rows.
-MatchStats MatchFrame(const std::vector<Detection>& detections, const std::vector<GtObservation>& gt,
+MatchStats MatchFrame(const std::vector<Detection>& detections,
+                      const std::vector<GtObservation>& gt,
                       const MatchOptions& options = MatchOptions());
 
 // Runs `detect` on every image of a rendered sequence DIR (DIR/mav0/cam0/data.csv + data/, and

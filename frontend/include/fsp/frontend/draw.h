@@ -9,9 +9,10 @@
 
 namespace fsp::frontend {
 
-// Returns a BGR copy of `image` (grey or BGR) with each detection's outline (green for tags, colour by
-// class otherwise), its corners numbered 1..4 (s1..s4) and a label "id/class score". Uses corners_px
-// (distorted pixels, i.e. the image as stored). Line widths and fonts scale with the image size.
+// Returns a BGR copy of `image` (grey or BGR) with each detection's outline (green for tags, colour
+// by class otherwise), its corners numbered 1..4 (s1..s4) and a label "id/class score". Uses
+// corners_px (distorted pixels, i.e. the image as stored). Line widths and fonts scale with the
+// image size.
 cv::Mat DrawDetections(const cv::Mat& image, const std::vector<Detection>& detections);
 
 }  // namespace fsp::frontend

@@ -1,36 +1,43 @@
-// Rectangle detector: finds the images of 3-D rectangles (doors, windows, cabinets, posters, boards)
-// with sub-pixel corners.
+// Rectangle detector: finds the images of 3-D rectangles (doors, windows, cabinets, posters,
+// boards) with sub-pixel corners.
 //
 // Pipeline (each stage is timed, see RectDetector::Result::times):
-//  1. "edges":    Sobel gradients and Canny edges; the hysteresis thresholds come from the image's own
-//                 gradient statistics (a noise estimate from the median gradient magnitude), not from
-//                 fixed grey-level values.
+//  1. "edges":    Sobel gradients and Canny edges; the hysteresis thresholds come from the image's
+//  own
+//                 gradient statistics (a noise estimate from the median gradient magnitude), not
+//                 from fixed grey-level values.
 //  2. "segments": Canny pixels linked into 8-connected chains, chains split into straight pieces
 //                 (recursive split at the farthest pixel), each piece fitted by least squares;
 //                 endpoints undistorted when a calibration is given; collinear pieces merged.
 //                 (cv::ximgproc::FastLineDetector does the same but took ~20 ms per 640x480 frame.)
-//  3. "group":    quadrilateral hypotheses: 4 segments joined at L-junctions (intersection close to an
+//  3. "group":    quadrilateral hypotheses: 4 segments joined at L-junctions (intersection close to
+//  an
 //                 endpoint of both) that close into a convex quadrilateral.
-//  4. "refine":   per side, sub-pixel edge points found along the side's normal (1-D gradient peak in the
-//                 DISTORTED image, then undistorted), a RANSAC line fit and a gradient-weighted total
-//                 least-squares refit on the inliers; corners = intersections of adjacent sides.
-//  5. "verify":   rectangle test with K (Zhang-He: the 3-D edges of a true rectangle are perpendicular),
+//  4. "refine":   per side, sub-pixel edge points found along the side's normal (1-D gradient peak
+//  in the
+//                 DISTORTED image, then undistorted), a RANSAC line fit and a gradient-weighted
+//                 total least-squares refit on the inliers; corners = intersections of adjacent
+//                 sides.
+//  5. "verify":   rectangle test with K (Zhang-He: the 3-D edges of a true rectangle are
+//  perpendicular),
 //                 edge support score, class guess.
-//  6. "nms":      duplicates (same corners within a tolerance) keep the best score; nesting rule below.
+//  6. "nms":      duplicates (same corners within a tolerance) keep the best score; nesting rule
+//  below.
 //
-// Nesting rule (a window frame and its pane, a thick door frame's two outlines): when quad B lies inside
-// quad A and every corner of B is within `nest_corner_frac` x (A's shortest side) of A's matching corner,
-// B is the inner outline of the same object and is dropped: the OUTER outline is reported (the object's
-// full extent), unless its edge support is clearly lower (`nest_score_margin`). When nested quads
-// share two adjacent corners (a board and the quad closed by the row
-// of tags below its top edge; a window and its lower pane) they are alternatives for one object and
-// the better-scoring one is kept; so are near-concentric quads that cross (one side from each of two
-// parallel outlines). Finally, with `drop_contained` (default), any rectangle inside another detection
-// is dropped (one object per outer rectangle: panes, door panels, tag pattern squares); without it,
-// rectangles inside rectangles (a poster on a door) are kept as objects of their own.
+// Nesting rule (a window frame and its pane, a thick door frame's two outlines): when quad B lies
+// inside quad A and every corner of B is within `nest_corner_frac` x (A's shortest side) of A's
+// matching corner, B is the inner outline of the same object and is dropped: the OUTER outline is
+// reported (the object's full extent), unless its edge support is clearly lower
+// (`nest_score_margin`). When nested quads share two adjacent corners (a board and the quad closed
+// by the row of tags below its top edge; a window and its lower pane) they are alternatives for one
+// object and the better-scoring one is kept; so are near-concentric quads that cross (one side from
+// each of two parallel outlines). Finally, with `drop_contained` (default), any rectangle inside
+// another detection is dropped (one object per outer rectangle: panes, door panels, tag pattern
+// squares); without it, rectangles inside rectangles (a poster on a door) are kept as objects of
+// their own.
 //
-// Pixel thresholds are either relative (a fraction of a segment's length or of the image diagonal) or
-// tied to the edge profile (fractions of a pixel); none is tuned to one camera.
+// Pixel thresholds are either relative (a fraction of a segment's length or of the image diagonal)
+// or tied to the edge profile (fractions of a pixel); none is tuned to one camera.
 #pragma once
 
 #include <cstdint>
@@ -49,10 +56,12 @@ namespace fsp::frontend {
 struct RectDetectorOptions {
   // --- 1. edges ---
   // High Canny threshold as a multiple of the gradient noise level, estimated as the median Sobel
-  // magnitude / 1.177 (the Rayleigh median for pure noise). Lower finds fainter edges but more clutter.
+  // magnitude / 1.177 (the Rayleigh median for pure noise). Lower finds fainter edges but more
+  // clutter.
   double canny_noise_multiple = 5.0;
-  // Floor of the high threshold as a grey-level step [grey levels, 8-bit]: edges weaker than this step
-  // are never seeds even in a perfectly clean image. Lower finds low-contrast objects and more clutter.
+  // Floor of the high threshold as a grey-level step [grey levels, 8-bit]: edges weaker than this
+  // step are never seeds even in a perfectly clean image. Lower finds low-contrast objects and more
+  // clutter.
   double min_edge_contrast = 8.0;
   // Low (hysteresis) threshold as a fraction of the high one. Lower links edges across weak parts.
   double canny_low_ratio = 0.4;
@@ -63,10 +72,10 @@ struct RectDetectorOptions {
   double min_segment_frac = 0.02;
   // Largest distance of an edge pixel from the chord of its piece before the chain is split [px].
   double segment_fit_px = 1.414;
-  // Collinear merge of pieces with the same polarity (bright side on the same side): max angle [deg]
-  // and max endpoint-to-line distance [px] between two pieces, and max gap between them [fraction of
-  // the image diagonal]. A larger gap merges pieces broken by crossings or occlusion but also joins
-  // the collinear edges of neighbouring objects (a row of windows).
+  // Collinear merge of pieces with the same polarity (bright side on the same side): max angle
+  // [deg] and max endpoint-to-line distance [px] between two pieces, and max gap between them
+  // [fraction of the image diagonal]. A larger gap merges pieces broken by crossings or occlusion
+  // but also joins the collinear edges of neighbouring objects (a row of windows).
   double merge_angle_deg = 3.0;
   double merge_line_px = 2.0;
   double merge_gap_frac = 0.04;
@@ -96,25 +105,25 @@ struct RectDetectorOptions {
   double search_step_px = 0.5;
   // Edge samples per side (fewer: faster, noisier lines).
   int samples_per_side = 40;
-  // Part of each side next to its corners that is not sampled [fraction of the side], where the other
-  // side's edge and corner rounding disturb the profile.
+  // Part of each side next to its corners that is not sampled [fraction of the side], where the
+  // other side's edge and corner rounding disturb the profile.
   double corner_margin_frac = 0.08;
   // RANSAC inlier distance [px] and number of two-point draws per side.
   double ransac_inlier_px = 0.75;
   int ransac_iterations = 24;
   // Seed of the RANSAC generator (results are deterministic for a given seed).
   uint32_t seed = 1;
-  // A side counts as bent when lines fitted to its halves leave its global line by more than this at
-  // the corners [px]; each corner then comes from the half-lines next to it (robust to bent paper and
-  // residual distortion, ~1.4x noisier than the global line on a straight side).
+  // A side counts as bent when lines fitted to its halves leave its global line by more than this
+  // at the corners [px]; each corner then comes from the half-lines next to it (robust to bent
+  // paper and residual distortion, ~1.4x noisier than the global line on a straight side).
   double bend_px = 0.35;
-  // Least fraction of a side's samples that must be inliers of its line (edge support). Higher rejects
-  // partly occluded rectangles.
+  // Least fraction of a side's samples that must be inliers of its line (edge support). Higher
+  // rejects partly occluded rectangles.
   double min_side_support = 0.5;
 
   // --- 5. verification ---
-  // Largest |cos| of the 3-D angle between adjacent sides (Zhang-He); 0.2 is 90 +- 11.5 deg. Smaller
-  // rejects more non-rectangles but also true rectangles with noisy corners or a wrong K.
+  // Largest |cos| of the 3-D angle between adjacent sides (Zhang-He); 0.2 is 90 +- 11.5 deg.
+  // Smaller rejects more non-rectangles but also true rectangles with noisy corners or a wrong K.
   double max_abs_cos = 0.2;
   // Largest metric aspect ratio (long side / short side) accepted.
   double max_aspect = 8.0;
@@ -129,7 +138,8 @@ struct RectDetectorOptions {
   // Nesting (see above): corner distance [fraction of the outer quad's shortest side].
   double nest_corner_frac = 0.25;
   // ...but an outer outline whose score is lower than the inner one's by more than this keeps the
-  // inner one (the side face of a thick board or box seen at an angle is not part of the rectangle).
+  // inner one (the side face of a thick board or box seen at an angle is not part of the
+  // rectangle).
   double nest_score_margin = 0.05;
   // Report one object per outer rectangle: quads lying inside another detection (window panes, door
   // panels, the pattern squares of a tag) are dropped. False keeps them (a poster on a door becomes
@@ -150,9 +160,10 @@ class RectDetector {
     std::vector<Detection> detections;  // best score first
     StageTimes times;                   // edges, segments, group, refine, verify, nms
     int segments = 0;                   // after merging
-    std::vector<std::pair<Vec2, Vec2>> segment_ends;  // merged segments (undistorted px), for debugging
-    int hypotheses = 0;                 // quads from grouping
-    int refined = 0;                    // quads that survived refinement
+    std::vector<std::pair<Vec2, Vec2>>
+        segment_ends;                       // merged segments (undistorted px), for debugging
+    int hypotheses = 0;                     // quads from grouping
+    int refined = 0;                        // quads that survived refinement
     std::vector<Corners> hypothesis_quads;  // grouping's quads (undistorted px), for debugging
     std::vector<std::pair<Corners, double>> verified_quads;  // before suppression, with score
     double canny_low = 0.0, canny_high = 0.0;  // thresholds used (Sobel magnitude units)
@@ -160,10 +171,10 @@ class RectDetector {
 
   explicit RectDetector(Options options = Options());
 
-  // Detects rectangles in an 8-bit grey image (CV_8UC1; FSP_CHECKed). `camera` (optional) gives K and the
-  // distortion: edge points are undistorted so sides are straight lines; its size must match the image.
-  // `gravity_C` (optional) is the gravity direction in the camera frame (any length) used to order the
-  // corners (bottom = along gravity); without it the image's +v is down.
+  // Detects rectangles in an 8-bit grey image (CV_8UC1; FSP_CHECKed). `camera` (optional) gives K
+  // and the distortion: edge points are undistorted so sides are straight lines; its size must
+  // match the image. `gravity_C` (optional) is the gravity direction in the camera frame (any
+  // length) used to order the corners (bottom = along gravity); without it the image's +v is down.
   Result Detect(const cv::Mat& gray, const PinholeRadtan* camera = nullptr,
                 const Vec3* gravity_C = nullptr) const;
 

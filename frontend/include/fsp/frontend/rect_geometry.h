@@ -1,5 +1,5 @@
-// Small geometry of image quadrilaterals: the single-view rectangle test (Zhang & He), corner ordering
-// in s1..s4, polygon helpers. Independent of the back end (which has its own initialiser).
+// Small geometry of image quadrilaterals: the single-view rectangle test (Zhang & He), corner
+// ordering in s1..s4, polygon helpers. Independent of the back end (which has its own initialiser).
 #pragma once
 
 #include <optional>
@@ -11,22 +11,25 @@
 namespace fsp::frontend {
 
 // Zhang & He ("Whiteboard scanning and image enhancement", 2007), the single-view rectangle test.
-// With homogeneous undistorted pixel corners m1..m4 in cyclic order (m1, m3 diagonal) and m̃ = K⁻¹ m:
+// With homogeneous undistorted pixel corners m1..m4 in cyclic order (m1, m3 diagonal) and m̃ = K⁻¹
+// m:
 //   c2 = ((m̃1 × m̃3)·m̃4) / ((m̃2 × m̃3)·m̃4),   c4 = ((m̃1 × m̃3)·m̃2) / ((m̃4 × m̃3)·m̃2)
 //   n2 = c2 m̃2 − m̃1  (∝ the 3-D edge s1→s2),   n4 = c4 m̃4 − m̃1  (∝ the 3-D edge s1→s4)
-// (c2, c4 are the depths of corners 2 and 4 relative to corner 1.) A planar parallelogram's image gives
-// c2, c4 > 0; it is a rectangle when n2 ⊥ n4, so |cos∠(n2, n4)| measures how far it is from one.
+// (c2, c4 are the depths of corners 2 and 4 relative to corner 1.) A planar parallelogram's image
+// gives c2, c4 > 0; it is a rectangle when n2 ⊥ n4, so |cos∠(n2, n4)| measures how far it is from
+// one.
 struct RectangleTest {
-  bool valid = false;   // false: degenerate (collinear corners) or a corner behind the camera (c ≤ 0)
+  bool valid =
+      false;  // false: degenerate (collinear corners) or a corner behind the camera (c ≤ 0)
   double c2 = 0.0, c4 = 0.0;
   Vec3 n2 = Vec3::Zero(), n4 = Vec3::Zero();  // 3-D edge directions at unit depth of corner 1
-  double abs_cos = 1.0;      // |cos∠(n2, n4)|, 0 for a perfect rectangle
-  double aspect_12_14 = 0.0; // ‖n2‖/‖n4‖: metric length ratio of edge s1s2 to edge s1s4
+  double abs_cos = 1.0;                       // |cos∠(n2, n4)|, 0 for a perfect rectangle
+  double aspect_12_14 = 0.0;  // ‖n2‖/‖n4‖: metric length ratio of edge s1s2 to edge s1s4
 };
 RectangleTest ZhangHeTest(const Corners& undistorted_px, const Mat3& K);
 
-// A pinhole K for an uncalibrated image: principal point at the centre, focal length from an assumed
-// horizontal field of view [deg].
+// A pinhole K for an uncalibrated image: principal point at the centre, focal length from an
+// assumed horizontal field of view [deg].
 Mat3 DefaultK(int width, int height, double hfov_deg);
 
 // Signed area (shoelace) in pixel coordinates (x right, y down). s1..s4 of an object seen from the
@@ -39,11 +42,12 @@ bool InsideConvex(const Corners& c, const Vec2& p);
 // Puts four corners of a convex quad (any start, either orientation) into s1..s4 order.
 //  - Orientation: counter-clockwise on screen (negative SignedArea), the order of a front view.
 //  - Start corner: with gravity_C (gravity direction in the camera frame, any length) the image
-//    direction of "down" at the quad's centre is the projection of gravity there (undistorted pixels,
-//    K needed); without it, "down" is +v (image y). s1 is chosen so that the two "height" edges s4→s1 and
-//    s3→s2 point along "down" as well as possible, i.e. s1 is bottom-left and s2 bottom-right.
-//    When gravity is nearly along the viewing ray at the quad (a floor or ceiling object seen from
-//    above/below) the projected direction is too short to decide and the image rule is used.
+//    direction of "down" at the quad's centre is the projection of gravity there (undistorted
+//    pixels, K needed); without it, "down" is +v (image y). s1 is chosen so that the two "height"
+//    edges s4→s1 and s3→s2 point along "down" as well as possible, i.e. s1 is bottom-left and s2
+//    bottom-right. When gravity is nearly along the viewing ray at the quad (a floor or ceiling
+//    object seen from above/below) the projected direction is too short to decide and the image
+//    rule is used.
 Corners CanonicalOrder(const Corners& undistorted_px, const Mat3* K = nullptr,
                        const Vec3* gravity_C = nullptr);
 
