@@ -77,5 +77,24 @@ TEST(DetectCli, MissingFileAndUnknownFamily) {
   EXPECT_NE(r.err.find("tag99"), std::string::npos) << r.err;
 }
 
+TEST(DetectCli, CalibrationOfAnotherImageSize) {
+  FSP_REQUIRE_TEST_DATA(calib, "euroc_v101_micro/inflight_frames_kimera_lcd/sensorLeft.yaml");
+  const auto dir = ScratchDir();
+  cv::imwrite((dir / "small.png").string(),
+              MakeSyntheticFrame(1).image);  // 640x480, calib is 752x480
+  ExpectCleanError(RunFsp("detect --calib " + calib + " " + (dir / "small.png").string()),
+                   "small.png", "752x480");
+}
+
+TEST(DetectCli, WithCalibrationOnARealFrame) {
+  FSP_REQUIRE_TEST_DATA(dir, "euroc_v101_micro/inflight_frames_kimera_lcd");
+  const auto out = ScratchDir();
+  const auto r = RunFsp("detect --calib " + dir + "/sensorLeft.yaml " + dir +
+                        "/left_img_2.png --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("2 rectangles"), std::string::npos) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(out / "left_img_2_detect.png"));
+}
+
 }  // namespace
 }  // namespace fsp::test
