@@ -3,11 +3,17 @@
 #include <exception>
 
 #include <CLI/CLI.hpp>
+#include <glog/logging.h>
 
 #include "commands.h"
 #include "fsp/common/error.h"
 
 int main(int argc, char** argv) {
+  // Ceres logs through glog; its warnings (e.g. a rank-deficient covariance, reported in map.json as
+  // sigma -1) are not for users. Errors still show.
+  FLAGS_minloglevel = google::GLOG_ERROR;
+  FLAGS_logtostderr = true;
+  google::InitGoogleLogging(argv[0]);
   CLI::App app{
       "FSP-SLAM: monocular visual-inertial SLAM whose landmarks are rectangles (doors, windows,\n"
       "cabinets, posters, AprilTags) represented as Framed Structural Points.\n"

@@ -34,6 +34,9 @@ bool EstimatorOptions::Check(std::string* why) const {
   else if (!(prior_gyro_bias_sigma > 0.0) || !(prior_acc_bias_sigma > 0.0) || !(prior_log_omega_sigma > 0.0))
     os << "prior sigmas must be > 0";
   else if (min_observations < 1) os << "min_observations must be >= 1";
+  else if (mature_views < 1) os << "mature_views must be >= 1";
+  else if (max_past_views < 0 || batch_solve_every < 1) os << "max_past_views must be >= 0, batch_solve_every >= 1";
+  else if (!(min_depth_m > 0.0) || !(max_depth_m > min_depth_m)) os << "need 0 < min_depth_m < max_depth_m";
   if (why) *why = os.str();
   return os.str().empty();
 }
@@ -251,6 +254,7 @@ struct Estimator::Impl {
                                   obj->anchor->state.pose, obj->fsp.q_F_O, obj->fsp.x);
       }
       problem->SetManifold(obj->fsp.q_F_O, &quat_manifold);
+      BoundLogParameter(problem, obj->fsp.x, kFspLogOmega, options.min_depth_m, options.max_depth_m);
     } else {
       if (!PredictFhpCorners(K, T_W_C, T_W_F, obj->fhp).in_front) {
         ++summary.observations_rejected;
@@ -264,20 +268,33 @@ struct Estimator::Impl {
           problem->AddResidualBlock(new FhpFactor(corners[j], K, T_B_C, options.factor), loss, kf->state.pose,
                                     obj->anchor->state.pose, obj->fhp.corner[j]);
         }
+        BoundLogParameter(problem, obj->fhp.corner[j], 2, options.min_depth_m, options.max_depth_m);
       }
     }
   }
 
+  // Keeps an inverse depth ω = exp(x[i]) within [1/max_depth, 1/min_depth]: an object with no parallax
+  // yet (hover, far away) must not drift to infinity and drag the trajectory with it. The current value
+  // is clamped into the box first (Ceres requires a feasible start).
+  static void BoundLogParameter(ceres::Problem* problem, double* block, int i, double min_depth, double max_depth) {
+    const double lo = -std::log(max_depth), hi = -std::log(min_depth);
+    block[i] = std::clamp(block[i], lo, hi);
+    problem->SetParameterLowerBound(block, i, lo);
+    problem->SetParameterUpperBound(block, i, hi);
+  }
+
   // Observation factors of keyframes [begin, end) and, for every object they see, its past views.
-  void AddVisualFactors(ceres::Problem* problem, size_t begin, size_t end) {
+  // `mature`: only objects seen at least options.mature_views times (they constrain the poses), or
+  // only the others (refined alone with every pose held constant).
+  void AddVisualFactors(ceres::Problem* problem, size_t begin, size_t end, bool mature) {
     const int first_index = keyframes[begin]->index;
-    auto is_variable = [first_index](const Keyframe* k) { return k->index >= first_index; };
+    auto is_variable = [first_index, mature](const Keyframe* k) { return mature && k->index >= first_index; };
     std::vector<Object*> seen;
     for (size_t i = begin; i < end; ++i) {
       Keyframe* kf = keyframes[i].get();
       for (const ObjectObservation& o : kf->observations) {
         auto it = objects.find(o.object_id);
-        if (it == objects.end()) continue;
+        if (it == objects.end() || (it->second->observations >= options.mature_views) != mature) continue;
         AddObservation(problem, kf, it->second.get(), o.corners, is_variable);
         seen.push_back(it->second.get());
       }
@@ -345,12 +362,25 @@ struct Estimator::Impl {
       for (size_t b = 0; b < prior->blocks.size(); ++b)
         if (prior->manifolds[b]) problem.SetManifold(prior->blocks[b], const_cast<ceres::Manifold*>(prior->manifolds[b]));
     }
-    AddVisualFactors(&problem, window_begin, n);
+    AddVisualFactors(&problem, window_begin, n, /*mature=*/true);
     AddObjectPriors(&problem);
     ceres::Solver::Summary s;
     ceres::Solve(SolverOptions(max_iterations), &problem, &s);
     summary.final_cost = s.final_cost;
     for (size_t i = window_begin; i < n; ++i) output[keyframes[i]->index] = keyframes[i]->state.ToStateSample();
+    RefineYoungObjects(max_iterations);
+  }
+
+  // Objects seen fewer than mature_views times are refined on their own with the poses held constant:
+  // a young object's single-view guess (class-prior depth, possibly flipped normal) must not pull the
+  // trajectory before parallax has confirmed it.
+  void RefineYoungObjects(int max_iterations) {
+    ceres::Problem problem(ProblemOptions());
+    AddVisualFactors(&problem, window_begin, keyframes.size(), /*mature=*/false);
+    if (problem.NumResidualBlocks() == 0) return;
+    AddObjectPriors(&problem);
+    ceres::Solver::Summary s;
+    ceres::Solve(SolverOptions(max_iterations), &problem, &s);
   }
 
   // --- Marginalisation ------------------------------------------------------------------------------
@@ -516,7 +546,7 @@ struct Estimator::Impl {
       for (size_t b = 0; b < prior->blocks.size(); ++b)
         if (prior->manifolds[b]) problem.SetManifold(prior->blocks[b], const_cast<ceres::Manifold*>(prior->manifolds[b]));
     }
-    AddVisualFactors(&problem, window_begin, n);
+    AddVisualFactors(&problem, window_begin, n, /*mature=*/true);
     AddObjectPriors(&problem);
     ceres::Solver::Summary s;
     ceres::Solve(SolverOptions(options.window_max_iterations * 3), &problem, &s);

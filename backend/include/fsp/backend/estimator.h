@@ -78,6 +78,13 @@ struct EstimatorOptions {
   // held constant (newest kept). They carry the object's accumulated information; more: better maps,
   // more CPU per frame. The cost per frame stays bounded by window_size + max_past_views x objects in view.
   int max_past_views = 40;
+  // An object constrains the poses only once it has been seen this many times; before that it is
+  // refined alone with the poses held constant (a wrong single-view guess cannot pull the trajectory).
+  int mature_views = 10;
+  // Box on each object's depth (through its log inverse depth) [m]. Indoors objects are seen from
+  // 0.3..30 m; the box only matters for objects without parallax yet, which would otherwise drift.
+  double min_depth_m = 0.3;
+  double max_depth_m = 30.0;
   // Objects with fewer observations than this are not reported in the map.
   int min_observations = 3;
   bool Check(std::string* why) const;

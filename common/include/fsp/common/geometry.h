@@ -4,8 +4,9 @@
 //  - T_A_B maps coordinates in frame B into frame A: p_A = T_A_B * p_B.
 //  - Quaternions are Eigen's (Hamilton, stored x, y, z, w). Never mix orders; EuRoC csv files store
 //    w, x, y, z and are converted at the reader.
-//  - Perturbations are on the right: R ⊞ δ = R · Exp(δ), T ⊞ (δp, δθ) = (p + R δp, R Exp(δθ)) — the same
-//    convention as ceres::EigenQuaternionManifold for the rotation part.
+//  - Rigid3::Plus perturbs on the right: T ⊞ (δp, δθ) = (p + R δp, R Exp(δθ)). This is NOT Ceres'
+//    convention: ceres::EigenQuaternionManifold::Plus(q, δ) = Exp(2δ) ⊗ q (left, half-angle tangent);
+//    the back end's factors bridge the two explicitly (backend/include/fsp/backend/manifolds.h).
 #pragma once
 
 #include <Eigen/Core>
