@@ -2,6 +2,8 @@
 // rectangles, 10 s: 2 s still, then a loop in front of two walls; 320 x 240 images): window mode with
 // 1 px corner noise stays within bounds set from measurement, and noise-free corners converge to the
 // truth. The sequence is rendered once per test binary run (a few seconds).
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -55,10 +57,11 @@ noise: {pixel_sigma: 1.0, seed: 3}
 duration_s: 10
 )";
 
-// The sequence, rendered once into the temp folder.
+// The sequence, rendered once per test process into its own folder (CTest runs the tests of this file
+// as parallel processes: a shared folder would be deleted by one while another reads it).
 const fs::path& Sequence() {
   static const fs::path dir = [] {
-    const fs::path d = fs::temp_directory_path() / "fsp_tests" / "apps_e2e_sequence";
+    const fs::path d = fs::temp_directory_path() / "fsp_tests" / ("apps_e2e_sequence_" + std::to_string(::getpid()));
     fs::remove_all(d);
     sim::SequenceOptions options;
     options.video = false;
