@@ -49,6 +49,9 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (!(max_aspect >= 1.0)) os << "max_aspect must be >= 1; ";
   if (!(assumed_hfov_deg > 1.0 && assumed_hfov_deg < 179.0))
     os << "assumed_hfov_deg must be in (1, 179); ";
+  positive(margin_min_contrast, "margin_min_contrast");
+  if (!(margin_max_texture >= 0.0)) os << "margin_max_texture must be >= 0; ";
+  positive(margin_min_width_px, "margin_min_width_px");
   if (duplicate_corner_frac < 0.0 || nest_corner_frac < 0.0)
     os << "suppression fractions must be >= 0; ";
   if (max_detections < 0) os << "max_detections must be >= 0; ";
@@ -591,6 +594,65 @@ void QuadStats(const cv::Mat& img, const Corners& px, double scale, double* mean
   *stddev = std::sqrt(std::max(0.0, s2 / n - *mean * *mean));
 }
 
+// Bright margin test (RectDetectorOptions::prefer_inner_of_bright_margin) for an outer quad and a
+// nested inner one (undistorted px, any start corner, same orientation). Per side, at points p
+// along the inner side (t in [0.15, 0.85], away from the corners), the ring's width h is the
+// distance from p along the side's outward normal n to the matching outer side's line; the ring is
+// sampled at p + n h/2, the strip inside the inner outline at p − n h/2 (for a tag the black border
+// is as wide as the white margin) and the surroundings at p + 1.5 n h. Sides where the outlines
+// coincide (h < `margin_min_width_px`: a variant closed by lines of both outlines, a margin cut off
+// by the image border) and samples outside the image are skipped; at least one side's worth must
+// remain. Grey values on the smoothed image at the distorted positions.
+bool IsBrightMargin(const cv::Mat& smooth, const PinholeRadtan* cam, const Corners& outer,
+                    const Corners& inner, const RectDetectorOptions& o) {
+  int shift = 0;
+  CornerDistanceBestShift(outer, inner, &shift);
+  const Vec2 centre = 0.25 * (inner[0] + inner[1] + inner[2] + inner[3]);
+  constexpr int kPerSide = 12;
+  double sum[3] = {0, 0, 0}, sum2[3] = {0, 0, 0};
+  int n = 0;
+  for (int i = 0; i < 4; ++i) {
+    const Vec2 &i0 = inner[(i + shift) % 4], &i1 = inner[(i + 1 + shift) % 4];
+    const Line outer_line = LineOf(MakeSeg(outer[i], outer[(i + 1) % 4]));
+    const Vec2 u = (i1 - i0).normalized();
+    Vec2 nrm(-u.y(), u.x());
+    if (nrm.dot(i0 - centre) < 0.0) nrm = -nrm;  // outward
+    const double cos_n = outer_line.n.dot(nrm);
+    if (std::abs(cos_n) < 0.5) continue;  // sides not roughly parallel: not matching sides
+    for (int k = 0; k < kPerSide; ++k) {
+      const double t = 0.15 + 0.7 * (k + 0.5) / kPerSide;
+      const Vec2 p = i0 + t * (i1 - i0);
+      // p + h nrm lies on the outer line: outer_line.n · (p + h nrm) = outer_line.c.
+      const double h = (outer_line.c - outer_line.n.dot(p)) / cos_n;
+      if (h < o.margin_min_width_px) continue;
+      const Vec2 at[3] = {p - 0.5 * h * nrm, p + 0.5 * h * nrm, p + 1.5 * h * nrm};
+      double v[3];
+      bool ok = true;
+      for (int j = 0; j < 3 && ok; ++j) {
+        const Vec2 q = cam ? cam->DistortPixel(at[j]) : at[j];
+        ok = Bilinear(smooth, q.x(), q.y(), &v[j]);
+      }
+      if (!ok) continue;
+      for (int j = 0; j < 3; ++j) {
+        sum[j] += v[j];
+        sum2[j] += v[j] * v[j];
+      }
+      ++n;
+    }
+  }
+  if (n < kPerSide) return false;  // less than one side's worth of ring
+  double mean[3], sd[3];
+  for (int j = 0; j < 3; ++j) {
+    mean[j] = sum[j] / n;
+    sd[j] = std::sqrt(std::max(0.0, sum2[j] / n - mean[j] * mean[j]));
+  }
+  // The ring is brighter than the inner strip (clearly) and than the surroundings (an edge), and
+  // both the ring and the inner strip are plain.
+  const double contrast = mean[1] - mean[0];
+  return contrast >= o.margin_min_contrast && mean[1] - mean[2] >= o.min_edge_contrast &&
+         sd[1] <= o.margin_max_texture * contrast && sd[0] <= o.margin_max_texture * contrast;
+}
+
 }  // namespace
 
 RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadtan* camera,
@@ -774,6 +836,13 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
         continue;
       }
       if (concentric) {
+        // A plain bright ring between the outlines is a margin (a tag's white border): the inner
+        // outline is the object, whichever scores higher.
+        if (o.prefer_inner_of_bright_margin && IsBrightMargin(smooth, cam, outer.c, inner.c, o)) {
+          if (&inner == &q) k = q;
+          drop = true;
+          break;
+        }
         // The new one is the outer outline: it replaces the kept inner one unless clearly worse
         // supported (a box's side face seen at an angle gives a weaker outer edge than its front).
         if (&outer == &q && q.score >= k.score - o.nest_score_margin) k = q;

@@ -28,13 +28,16 @@
 // inside quad A and every corner of B is within `nest_corner_frac` x (A's shortest side) of A's
 // matching corner, B is the inner outline of the same object and is dropped: the OUTER outline is
 // reported (the object's full extent), unless its edge support is clearly lower
-// (`nest_score_margin`). When nested quads share two adjacent corners (a board and the quad closed
-// by the row of tags below its top edge; a window and its lower pane) they are alternatives for one
-// object and the better-scoring one is kept; so are near-concentric quads that cross (one side from
-// each of two parallel outlines). Finally, with `drop_contained` (default), any rectangle inside
-// another detection is dropped (one object per outer rectangle: panes, door panels, tag pattern
-// squares); without it, rectangles inside rectangles (a poster on a door) are kept as objects of
-// their own.
+// (`nest_score_margin`). Exception, the bright margin rule (`prefer_inner_of_bright_margin`): when
+// the ring between the two outlines is plain and brighter than both the plain strip inside B and
+// the surroundings of A, the ring is a margin (an AprilTag's white border, a print's mat) and B,
+// the object proper (the tag's black square), is reported. When nested quads share two adjacent
+// corners (a board and the quad closed by the row of tags below its top edge; a window and its
+// lower pane) they are alternatives for one object and the better-scoring one is kept; so are
+// near-concentric quads that cross (one side from each of two parallel outlines). Finally, with
+// `drop_contained` (default), any rectangle inside another detection is dropped (one object per
+// outer rectangle: panes, door panels, tag pattern squares); without it, rectangles inside
+// rectangles (a poster on a door) are kept as objects of their own.
 //
 // Pixel thresholds are either relative (a fraction of a segment's length or of the image diagonal)
 // or tied to the edge profile (fractions of a pixel); none is tuned to one camera.
@@ -141,6 +144,25 @@ struct RectDetectorOptions {
   // inner one (the side face of a thick board or box seen at an angle is not part of the
   // rectangle).
   double nest_score_margin = 0.05;
+  // Bright margin rule (fiducials: AprilTags, ArUco, checkerboard quiet zones; a mat around a
+  // print): when two nested near-concentric outlines enclose a plain ring that is brighter than
+  // both the plain strip just inside the inner outline and the surroundings outside the outer one,
+  // the ring is a margin around the object, not part of it: the INNER outline (a tag's black
+  // square) is reported whatever the scores. Frames darker than their content (doors, windows,
+  // posters, a board's dark backdrop) never qualify, so the outer-outline rule above still applies
+  // to them.
+  bool prefer_inner_of_bright_margin = true;
+  // The ring must be brighter than the strip inside the inner outline by at least this [grey
+  // levels, 8-bit, on the sigma 1 px smoothed image]; the surroundings need only be darker by
+  // `min_edge_contrast`. Lower lets low-contrast frames count as margins.
+  double margin_min_contrast = 40.0;
+  // Plainness: the grey-level standard deviation along the ring and along the inner strip must not
+  // exceed this fraction of the ring-to-inner contrast. Higher accepts textured rings (a tag grid's
+  // alternating tags and gaps are rejected by this: a calibration board keeps its outer outline).
+  double margin_max_texture = 0.25;
+  // Narrowest ring the rule is applied to [px]; thinner rings cannot be sampled apart from the
+  // blurred edges (then the outer outline wins as before).
+  double margin_min_width_px = 2.5;
   // Report one object per outer rectangle: quads lying inside another detection (window panes, door
   // panels, the pattern squares of a tag) are dropped. False keeps them (a poster on a door becomes
   // its own object again, but so does every pane).
