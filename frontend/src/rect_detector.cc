@@ -52,6 +52,8 @@ bool RectDetectorOptions::Check(std::string* why) const {
   positive(margin_min_contrast, "margin_min_contrast");
   if (!(margin_max_texture >= 0.0)) os << "margin_max_texture must be >= 0; ";
   positive(margin_min_width_px, "margin_min_width_px");
+  if (!(margin_probe_frac > 0.0 && margin_probe_frac <= 1.0))
+    os << "margin_probe_frac must be in (0, 1]; ";
   if (duplicate_corner_frac < 0.0 || nest_corner_frac < 0.0)
     os << "suppression fractions must be >= 0; ";
   if (max_detections < 0) os << "max_detections must be >= 0; ";
@@ -745,6 +747,10 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       ends[j][ej].push_back({i, ei, x});
     }
   const double min_side = o.min_side_frac * diag;
+  // Quads down to `margin_probe_frac` x min_side are found only to recognise the margins of
+  // objects too small to report (see the bright margin rule below); they are never reported.
+  const double probe_side =
+      o.prefer_inner_of_bright_margin ? o.margin_probe_frac * min_side : min_side;
   std::vector<Quad> quads;
   for (int a = 0; a < ns && static_cast<int>(quads.size()) < o.max_hypotheses; ++a)
     for (const Junction& jb : ends[a][1]) {
@@ -760,7 +766,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
             if (ja.seg != a || ja.end != 0) continue;
             Quad q;
             q.c = {jb.x, jc.x, jd.x, ja.x};
-            if (!IsConvex(q.c) || ShortestSide(q.c) < min_side) continue;
+            if (!IsConvex(q.c) || ShortestSide(q.c) < probe_side) continue;
             quads.push_back(q);
           }
         }
@@ -786,7 +792,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   // 5. verification on the refined corners, canonical order.
   std::vector<Quad> good;
   for (Quad& q : refined) {
-    if (ShortestSide(q.c) < min_side) continue;
+    if (ShortestSide(q.c) < probe_side) continue;
     q.c = CanonicalOrder(q.c, &K, gravity_C);
     const RectangleTest t = ZhangHeTest(q.c, K);
     if (!t.valid || t.abs_cos > o.max_abs_cos) continue;
@@ -801,6 +807,10 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   res.times.Add("verify", sw.Lap());
 
   // 6. suppression: duplicates keep the best score, concentric nesting keeps the outer outline.
+  // Undersized quads (probes) take no part in it; see the end of the loop.
+  std::vector<Quad> probes, full;
+  for (const Quad& q : good) (ShortestSide(q.c) < min_side ? probes : full).push_back(q);
+  good.swap(full);
   std::stable_sort(good.begin(), good.end(),
                    [](const Quad& x, const Quad& y) { return x.score > y.score; });
   std::vector<Quad> kept;
@@ -871,6 +881,29 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   // that drops every quad nested in a kept outer one was tried: on the rendered default room it
   // lowered precision from 0.57 to 0.52, because the rendered tags' ground truth is the black
   // square inside the white margin, and on the EuRoC board it picked the board's side face.)
+  // A bright margin around an object smaller than the minimum side (a small tag's white border):
+  // the margin outline is not an object and the object is too small to report, so neither is.
+  if (o.prefer_inner_of_bright_margin && !probes.empty()) {
+    std::vector<Quad> not_margin;
+    for (const Quad& k : kept) {
+      bool margin = false;
+      for (const Quad& p : probes) {
+        if (margin || p.area >= k.area) continue;
+        if (CornerDistanceBestShift(k.c, p.c) > o.nest_corner_frac * ShortestSide(k.c)) continue;
+        const Vec2 centre = 0.25 * (k.c[0] + k.c[1] + k.c[2] + k.c[3]);
+        Corners grown;  // 2 px margin: variants of the outline share sides with the probe
+        for (int i = 0; i < 4; ++i) {
+          const Vec2 r = k.c[i] - centre;
+          grown[i] = k.c[i] + 2.0 * r / std::max(r.norm(), 1e-9);
+        }
+        bool inside = true;
+        for (const Vec2& c : p.c) inside = inside && InsideConvex(grown, c);
+        margin = inside && IsBrightMargin(smooth, cam, k.c, p.c, o);
+      }
+      if (!margin) not_margin.push_back(k);
+    }
+    kept.swap(not_margin);
+  }
   std::vector<Quad> unique;
   for (const Quad& q : kept) {
     bool dup = false;

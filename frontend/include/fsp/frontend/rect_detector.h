@@ -163,6 +163,11 @@ struct RectDetectorOptions {
   // Narrowest ring the rule is applied to [px]; thinner rings cannot be sampled apart from the
   // blurred edges (then the outer outline wins as before).
   double margin_min_width_px = 2.5;
+  // Quads down to this fraction of the minimum side (`min_side_frac`) are also found, never
+  // reported, only to recognise bright margins around objects too small to report: such a margin
+  // outline (a small tag's white border) is dropped too. 0.75 covers tag36h11 (black square = 0.8
+  // x the margin outline); lower costs grouping time, 1 switches this off.
+  double margin_probe_frac = 0.75;
   // Report one object per outer rectangle: quads lying inside another detection (window panes, door
   // panels, the pattern squares of a tag) are dropped. False keeps them (a poster on a door becomes
   // its own object again, but so does every pane).
@@ -187,7 +192,8 @@ class RectDetector {
     int hypotheses = 0;                     // quads from grouping
     int refined = 0;                        // quads that survived refinement
     std::vector<Corners> hypothesis_quads;  // grouping's quads (undistorted px), for debugging
-    std::vector<std::pair<Corners, double>> verified_quads;  // before suppression, with score
+    std::vector<std::pair<Corners, double>>
+        verified_quads;  // before suppression, with score (incl. margin probes)
     double canny_low = 0.0, canny_high = 0.0;  // thresholds used (Sobel magnitude units)
   };
 
