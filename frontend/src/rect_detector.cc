@@ -52,6 +52,7 @@ bool RectDetectorOptions::Check(std::string* why) const {
   positive(margin_min_contrast, "margin_min_contrast");
   if (!(margin_max_texture >= 0.0)) os << "margin_max_texture must be >= 0; ";
   positive(margin_min_width_px, "margin_min_width_px");
+  if (!(max_corner_outside_px >= 0.0)) os << "max_corner_outside_px must be >= 0; ";
   if (!(margin_probe_frac > 0.0 && margin_probe_frac <= 1.0))
     os << "margin_probe_frac must be in (0, 1]; ";
   if (duplicate_corner_frac < 0.0 || nest_corner_frac < 0.0)
@@ -801,6 +802,16 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     q.abs_cos = t.abs_cos;
     q.score *= 1.0 - 0.5 * t.abs_cos / o.max_abs_cos;
     q.area = std::abs(SignedArea(q.c));
+    // Every corner must be seen: a corner outside the image is an extrapolation of sides that run
+    // out of the view (the object is cut off; its fourth side is some other line).
+    bool in_view = true;
+    for (const Vec2& c : q.c) {
+      const Vec2 d = cam ? cam->DistortPixel(c) : c;
+      in_view = in_view && d.x() >= -o.max_corner_outside_px && d.y() >= -o.max_corner_outside_px &&
+                d.x() <= gray.cols - 1 + o.max_corner_outside_px &&
+                d.y() <= gray.rows - 1 + o.max_corner_outside_px;
+    }
+    if (!in_view) continue;
     good.push_back(q);
   }
   for (const Quad& q : good) res.verified_quads.emplace_back(q.c, q.score);

@@ -20,7 +20,8 @@
 //                 sides.
 //  5. "verify":   rectangle test with K (Zhang-He: the 3-D edges of a true rectangle are
 //  perpendicular),
-//                 edge support score, class guess.
+//                 every corner inside the image (`max_corner_outside_px`), edge support score,
+//                 class guess.
 //  6. "nms":      duplicates (same corners within a tolerance) keep the best score; nesting rule
 //  below.
 //
@@ -132,6 +133,10 @@ struct RectDetectorOptions {
   double max_aspect = 8.0;
   // Horizontal field of view [deg] assumed for K when no calibration is given.
   double assumed_hfov_deg = 60.0;
+  // Largest distance of a corner outside the image [px, distorted]. A corner outside is not
+  // observed: the sides that meet there run out of view and the quad is usually closed by another
+  // line (a cut-off door closed by its panel groove). Larger keeps such guesses.
+  double max_corner_outside_px = 1.0;
   // Guess classes (door, window, poster, cabinet) from shape, brightness and texture.
   bool guess_class = true;
 
