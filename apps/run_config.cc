@@ -64,6 +64,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.mature_views", &e.mature_views, kAtLeastOne},
       {"estimator.min_depth_m", &e.min_depth_m, kPositive},
       {"estimator.max_depth_m", &e.max_depth_m, kPositive},
+      {"estimator.reinit_gate_px", &e.reinit_gate_px, kNonNegative},
       {"estimator.static_init.window_s", &e.static_init.window_s, kPositive},
       {"estimator.static_init.block_s", &e.static_init.block_s, kPositive},
       {"estimator.static_init.max_gyro_block_std", &e.static_init.max_gyro_block_std, kPositive},
