@@ -183,6 +183,7 @@ struct Estimator::Impl {
       if (it != objects.end()) {
         ++it->second->observations;
         it->second->last_seen = keyframes.back()->index;
+        ++summary.observations_used;
       }
     }
     if (options.mode == EstimatorMode::kWindow) {
@@ -274,10 +275,7 @@ struct Estimator::Impl {
     const Rigid3 T_W_F = CameraPose(*obj->anchor);
     const bool at_anchor = obj->anchor == kf;
     if (options.landmarks == LandmarkType::kFsp) {
-      if (!PredictFspCorners(K, T_W_C, T_W_F, obj->fsp).in_front) {
-        ++summary.observations_rejected;
-        return;
-      }
+      if (!PredictFspCorners(K, T_W_C, T_W_F, obj->fsp).in_front) return;  // behind the camera
       ceres::LossFunction* loss = MakeRobustLoss(options.robust, 8).release();
       if (at_anchor) {
         problem->AddResidualBlock(new FspAnchorFactor(corners, K, options.factor), loss, obj->fsp.q_F_O, obj->fsp.x);
@@ -288,10 +286,7 @@ struct Estimator::Impl {
       problem->SetManifold(obj->fsp.q_F_O, &quat_manifold);
       BoundLogParameter(problem, obj->fsp.x, kFspLogOmega, options.min_depth_m, options.max_depth_m);
     } else {
-      if (!PredictFhpCorners(K, T_W_C, T_W_F, obj->fhp).in_front) {
-        ++summary.observations_rejected;
-        return;
-      }
+      if (!PredictFhpCorners(K, T_W_C, T_W_F, obj->fhp).in_front) return;  // behind the camera
       for (int j = 0; j < 4; ++j) {
         ceres::LossFunction* loss = MakeRobustLoss(options.robust, 2).release();
         if (at_anchor) {
@@ -438,19 +433,6 @@ struct Estimator::Impl {
         break;
       }
     }
-  }
-
-  // Landmark parameter blocks of an object (FSP: q_F_O, x; FHP: one block per corner).
-  std::vector<double*> LandmarkBlocks(Object* obj) {
-    if (options.landmarks == LandmarkType::kFsp) return {obj->fsp.q_F_O, obj->fsp.x};
-    return {obj->fhp.corner[0], obj->fhp.corner[1], obj->fhp.corner[2], obj->fhp.corner[3]};
-  }
-  int BlockSize(const Object* obj, const double* block) const {
-    if (options.landmarks == LandmarkType::kFhp) return 3;
-    return block == obj->fsp.q_F_O ? 4 : 5;
-  }
-  const ceres::Manifold* ManifoldOf(Object* obj, const double* block) const {
-    return options.landmarks == LandmarkType::kFsp && block == obj->fsp.q_F_O ? &quat_manifold : nullptr;
   }
 
   void MarginalizeOldest() {

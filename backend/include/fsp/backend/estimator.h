@@ -112,8 +112,8 @@ struct EstimatorSummary {
   std::string init_failure;         // why the static initialisation refused (empty when fine)
   int frames = 0;                   // frames given to AddFrame
   int keyframes = 0;                // keyframes created
-  int observations_used = 0;        // object observations turned into factors
-  int observations_rejected = 0;    // behind the camera, failed initialisation, ...
+  int observations_used = 0;        // observations of objects in the map (they become factors)
+  int observations_rejected = 0;    // first views whose single-view initialisation failed
   int reanchors = 0;
   int objects_reinitialized = 0;    // window: objects seen again after leaving the window, started afresh
   int marginalizations = 0;
