@@ -7,6 +7,7 @@
 #include <string>
 
 #include "commands.h"
+#include "eval_plot.h"
 #include "fsp/common/error.h"
 #include "fsp/eval/evaluate.h"
 
@@ -49,6 +50,12 @@ void RunEval(const EvalArgs& args) {
     file << eval::ToJson(metrics).dump(2) << "\n";
     if (!file) throw InputError(args.out, 0, "error while writing metrics");
     std::printf("metrics written to %s\n", args.out.c_str());
+    if (metrics.trajectory) {
+      const std::string png = (out.has_parent_path() ? out.parent_path() / "eval_top_view.png"
+                                                     : std::filesystem::path("eval_top_view.png")).string();
+      WriteEvalTopView(metrics, png);
+      std::printf("top view written to %s\n", png.c_str());
+    }
   }
 }
 
@@ -60,7 +67,8 @@ void AddEvalCommand(CLI::App& root) {
       "eval",
       "Accuracy of a run against ground truth: ATE after alignment and RPE over consecutive frames (pairs\n"
       "associated by nearest timestamp within 0.01 s, as evo does), object corner/size errors, front-end\n"
-      "recall/precision/corner error/id switches, and runtime. Writes metrics.json with --out.");
+      "recall/precision/corner error/id switches, and runtime. With --out, writes metrics.json and, beside\n"
+      "it, eval_top_view.png (ground truth vs aligned estimate, trajectory and objects).");
   sub->add_option("--gt", args->gt,
                   "Ground truth: a TUM file, a EuRoC ground-truth csv, or a sequence folder (EuRoC layout with\n"
                   "mav0/state_groundtruth_estimate0/data.csv, objects_gt.json, observations_gt.csv)")

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 #include <nlohmann/json.hpp>
 
 #include "fsp/common/trajectory_io.h"
@@ -96,6 +97,10 @@ TEST(CmdEval, SequenceAndRunFoldersGiveEveryBlock) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("ATE rmse"), std::string::npos) << r.out;
   const nlohmann::json m = ReadJson(out);
+  // The top-view picture is written beside metrics.json and is a real image.
+  const cv::Mat picture = cv::imread((dir / "eval_top_view.png").string());
+  EXPECT_FALSE(picture.empty()) << r.out;
+  EXPECT_GE(picture.cols, 500);
 
   const auto& t = m.at("trajectory");
   EXPECT_EQ(t.at("pairs"), 40);
