@@ -378,7 +378,11 @@ struct Estimator::Impl {
     return so;
   }
 
-  void SolveWindow(int max_iterations) {
+  // Solves the window [window_begin, end): states, IMU factors, gauge priors while the first keyframe is
+  // in it, the marginalisation prior, mature objects' observations and the object priors. The final
+  // solve (finish) iterates longer and computes the map's width/height sigmas; the per-frame one then
+  // refines the young objects alone.
+  void SolveWindow(int max_iterations, bool finish = false) {
     ceres::Problem problem(ProblemOptions());
     const size_t n = keyframes.size();
     for (size_t i = window_begin; i < n; ++i) AddStateBlocks(&problem, keyframes[i].get());
@@ -395,7 +399,11 @@ struct Estimator::Impl {
     ceres::Solve(SolverOptions(max_iterations), &problem, &s);
     summary.final_cost = s.final_cost;
     for (size_t i = window_begin; i < n; ++i) output[keyframes[i]->index] = keyframes[i]->state.ToStateSample();
-    RefineYoungObjects(max_iterations);
+    if (finish) {
+      ComputeSigmas(&problem);
+    } else {
+      RefineYoungObjects(max_iterations);
+    }
   }
 
   // Objects seen fewer than mature_views times are refined on their own with the poses held constant:
@@ -549,24 +557,7 @@ struct Estimator::Impl {
   }
 
   void FinishWindow() {
-    if (keyframes.empty()) return;
-    ceres::Problem problem(ProblemOptions());
-    const size_t n = keyframes.size();
-    for (size_t i = window_begin; i < n; ++i) AddStateBlocks(&problem, keyframes[i].get());
-    for (size_t i = window_begin + 1; i < n; ++i) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
-    if (window_begin == 0) AddGaugePriors(&problem, keyframes[0].get());
-    if (prior) {
-      problem.AddResidualBlock(new MarginalizationPriorFactor(prior), nullptr, prior->blocks);
-      for (size_t b = 0; b < prior->blocks.size(); ++b)
-        if (prior->manifolds[b]) problem.SetManifold(prior->blocks[b], const_cast<ceres::Manifold*>(prior->manifolds[b]));
-    }
-    AddVisualFactors(&problem, window_begin, n, /*mature=*/true);
-    AddObjectPriors(&problem);
-    ceres::Solver::Summary s;
-    ceres::Solve(SolverOptions(options.window_max_iterations * 3), &problem, &s);
-    summary.final_cost = s.final_cost;
-    for (size_t i = window_begin; i < n; ++i) output[keyframes[i]->index] = keyframes[i]->state.ToStateSample();
-    ComputeSigmas(&problem);
+    if (!keyframes.empty()) SolveWindow(options.window_max_iterations * 3, /*finish=*/true);
   }
 };
 
