@@ -45,6 +45,10 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (ransac_iterations < 1) os << "ransac_iterations must be >= 1; ";
   if (!(min_side_support >= 0.0 && min_side_support <= 1.0))
     os << "min_side_support must be in [0, 1]; ";
+  if (!(max_side_continuation >= 0.0 && max_side_continuation <= 1.0))
+    os << "max_side_continuation must be in [0, 1]; ";
+  if (!(continuation_start_px >= 0.0)) os << "continuation_start_px must be >= 0; ";
+  positive(continuation_frac, "continuation_frac");
   if (!(max_abs_cos > 0.0 && max_abs_cos <= 1.0)) os << "max_abs_cos must be in (0, 1]; ";
   if (!(max_aspect >= 1.0)) os << "max_aspect must be >= 1; ";
   if (!(assumed_hfov_deg > 1.0 && assumed_hfov_deg < 179.0))
@@ -403,8 +407,16 @@ int JunctionEnd(const Seg& s, const Vec2& x, const RectDetectorOptions& o) {
   return -beyond <= o.junction_overshoot_frac * s.len + o.junction_slack_px ? end : -1;
 }
 
+// What refinement learns about one side besides its line: the polarity of its edge (+1: brighter
+// towards the side's left normal) and the median gradient of its inlier edge points.
+struct SideEdge {
+  int sign = 1;
+  double gradient = 0.0;
+};
+
 struct Quad {
   Corners c;  // undistorted px, grouping order (a∩b, b∩c, c∩d, d∩a)
+  std::array<SideEdge, 4> edges;  // side i joins c[i-1] and c[i] (grouping order, set by refinement)
   double score = 0.0;
   double abs_cos = 1.0;
   double aspect_w_h = 1.0;  // metric width / height after canonical ordering
@@ -451,18 +463,79 @@ int RansacLine(const std::vector<Vec2>& pts, const std::vector<double>& w,
   return static_cast<int>(inl.size());
 }
 
+// One sub-pixel edge point: the 1-D gradient peak on the (smoothed, distorted) image along the
+// normal `n` through `p` (undistorted px), within +-search_px. Returns false when the peak is at the
+// window's end (no edge inside), below `min_gradient` [grey levels / px] or the profile leaves the
+// image. With `want_sign` != 0 only edges of that polarity are considered (a groove's two edges). `edge` (undistorted px), `gradient` [grey levels / px] and `sign` (+1: brighter towards
+// +n) describe the peak.
+struct EdgeProbe {
+  const cv::Mat& smooth;
+  const PinholeRadtan* cam;  // non-null only with distortion
+  const RectDetectorOptions& o;
+  int m;  // samples each side of p
+  mutable std::vector<double> prof;
+  EdgeProbe(const cv::Mat& s, const PinholeRadtan* c, const RectDetectorOptions& opt)
+      : smooth(s),
+        cam(c && c->HasDistortion() ? c : nullptr),
+        o(opt),
+        m(static_cast<int>(std::lround(opt.search_px / opt.search_step_px))),
+        prof(2 * m + 1) {}
+
+  bool Peak(const Vec2& p, const Vec2& n, double min_gradient, Vec2* edge, double* gradient,
+            int* sign, int want_sign = 0) const {
+    // With distortion the search runs along the image of the normal, nd = J n / |J n| (J: the
+    // Jacobian of the distortion at p, by a 1 px finite difference); an offset s along nd maps
+    // back to p + (s / |J n|) n to first order (the error is second order in s <= search_px:
+    // negligible, and it saves an iterative undistortion per edge point).
+    Vec2 qd = p, nd = n;
+    double jn = 1.0;
+    if (cam) {
+      qd = cam->DistortPixel(p);
+      nd = cam->DistortPixel(p + n) - qd;
+      jn = nd.norm();
+      nd /= jn;
+    }
+    for (int i = -m; i <= m; ++i) {
+      const Vec2 sp = qd + (i * o.search_step_px) * nd;
+      if (!Bilinear(smooth, sp.x(), sp.y(), &prof[i + m])) return false;
+    }
+    // Derivative by central differences over one pixel (2 steps of 0.5 px): grey levels per px.
+    int best = -1;
+    double best_abs = 0.0;
+    for (int i = 1; i < 2 * m; ++i) {
+      const double diff = prof[i + 1] - prof[i - 1];
+      const double d = want_sign == 0 ? std::abs(diff) : want_sign * diff;
+      if (d > best_abs) {
+        best_abs = d;
+        best = i;
+      }
+    }
+    if (best <= 1 || best >= 2 * m - 1) return false;  // peak at the window's end: no edge inside
+    *gradient = best_abs / (2.0 * o.search_step_px);
+    if (*gradient < min_gradient) return false;
+    // Parabola through the derivative magnitudes at best-1, best, best+1: vertex offset in steps.
+    const double sgn = want_sign == 0 ? (prof[best + 1] > prof[best - 1] ? 1.0 : -1.0) : want_sign;
+    const double dm = sgn * (prof[best] - prof[best - 2]);
+    const double dp = sgn * (prof[best + 2] - prof[best]);
+    const double den = dm - 2.0 * best_abs + dp;
+    const double delta = den < 0.0 ? 0.5 * (dm - dp) / den : 0.0;
+    const double s_star = (best - m + std::clamp(delta, -0.5, 0.5)) * o.search_step_px;
+    *edge = p + (s_star / jn) * n;
+    *sign = prof[best + 1] > prof[best - 1] ? 1 : -1;
+    return true;
+  }
+};
+
 // Sub-pixel refinement of one quad. Side i joins corners c[i-1] and c[i]; its edge points come from
 // 1-D gradient peaks along the side's normal in the (smoothed, distorted) image. Each side gets one
 // RANSAC line; when the lines fitted to its two halves disagree with it by more than `bend_px` at
 // the corners (a bent side: paper, residual distortion), each corner is taken from the half-lines
 // next to it.
-bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetectorOptions& o,
-                double min_gradient, std::mt19937* rng, Quad* q) {
-  const bool distort = cam != nullptr && cam->HasDistortion();
+bool RefineQuad(const EdgeProbe& probe, double min_gradient, std::mt19937* rng, Quad* q,
+                std::array<SideEdge, 4>* side_edges) {
+  const RectDetectorOptions& o = probe.o;
   std::array<Line, 4> start_line, end_line;  // line used at the side's first / last corner
   double support_sum = 0.0;
-  const int m = static_cast<int>(std::lround(o.search_px / o.search_step_px));
-  std::vector<double> prof(2 * m + 1);
   std::vector<Vec2> pts;
   std::vector<double> w, ts;
   std::vector<int> sign;
@@ -480,40 +553,10 @@ bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetec
     int pos = 0, neg = 0;
     for (int k = 0; k < k_samples; ++k) {
       const double t = margin + (L - 2 * margin) * (k + 0.5) / k_samples;
-      const Vec2 p = P + t * u;
-      Vec2 qd = p, nd = n;
-      if (distort) {
-        qd = cam->DistortPixel(p);
-        nd = (cam->DistortPixel(p + n) - qd).normalized();
-      }
-      bool ok = true;
-      for (int i = -m; i <= m && ok; ++i) {
-        const Vec2 sp = qd + (i * o.search_step_px) * nd;
-        ok = Bilinear(smooth, sp.x(), sp.y(), &prof[i + m]);
-      }
-      if (!ok) continue;
-      // Derivative by central differences over one pixel (2 steps of 0.5 px): grey levels per px.
-      int best = -1;
-      double best_abs = 0.0;
-      for (int i = 1; i < 2 * m; ++i) {
-        const double d = std::abs(prof[i + 1] - prof[i - 1]);
-        if (d > best_abs) {
-          best_abs = d;
-          best = i;
-        }
-      }
-      if (best <= 1 || best >= 2 * m - 1) continue;  // peak at the window's end: no edge inside
-      const double gradient = best_abs / (2.0 * o.search_step_px);
-      if (gradient < min_gradient) continue;
-      // Parabola through the derivative magnitudes at best-1, best, best+1: vertex offset in steps.
-      const double dm = std::abs(prof[best] - prof[best - 2]);
-      const double dp = std::abs(prof[best + 2] - prof[best]);
-      const double den = dm - 2.0 * best_abs + dp;
-      const double delta = den < 0.0 ? 0.5 * (dm - dp) / den : 0.0;
-      const double s_star = (best - m + std::clamp(delta, -0.5, 0.5)) * o.search_step_px;
-      Vec2 e = qd + s_star * nd;
-      if (distort) e = cam->UndistortPixel(e);
-      const int sg = prof[best + 1] > prof[best - 1] ? 1 : -1;
+      Vec2 e;
+      double gradient;
+      int sg;
+      if (!probe.Peak(P + t * u, n, min_gradient, &e, &gradient, &sg)) continue;
       (sg > 0 ? pos : neg)++;
       pts.push_back(e);
       w.push_back(gradient);
@@ -523,13 +566,18 @@ bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetec
     // Keep the majority polarity: a side's edge has one polarity; the other is a neighbouring edge.
     const int keep = pos >= neg ? 1 : -1;
     std::vector<int> all, first, second;
+    std::vector<double> grads;
     for (size_t i = 0; i < pts.size(); ++i) {
       if (sign[i] != keep) continue;
       all.push_back(static_cast<int>(i));
+      grads.push_back(w[i]);
       (ts[i] < 0.5 * L ? first : second).push_back(static_cast<int>(i));
     }
     const int need = static_cast<int>(std::ceil(o.min_side_support * k_samples));
     if (static_cast<int>(all.size()) < std::max(need, 2)) return false;
+    std::nth_element(grads.begin(), grads.begin() + grads.size() / 2, grads.end());
+    (*side_edges)[side].sign = keep;
+    (*side_edges)[side].gradient = grads[grads.size() / 2];
     Line global;
     const int n_global =
         RansacLine(pts, w, all, o.ransac_inlier_px, o.ransac_iterations, rng, &global);
@@ -565,6 +613,95 @@ bool RefineQuad(const cv::Mat& smooth, const PinholeRadtan* cam, const RectDetec
   q->c = c;
   q->score = std::min(1.0, support_sum / 4.0);
   return true;
+}
+
+// T-junction test (RectDetectorOptions::max_side_continuation): does the edge of a side run on past
+// the corner `corner`? `u` is the side's direction pointing out of the quad at that corner, `edge`
+// its polarity and strength along the side (polarity relative to the left normal of u_side, where
+// u_side is the side's own direction from its first to its last corner; `flip` says whether u is
+// -u_side). Edge points are searched on the side's line extended beyond the corner, from
+// `continuation_start_px` over `continuation_frac` x the side's length; a point supports the
+// continuation when the gradient peak has the side's polarity, at least half its median gradient,
+// and lies within ransac_inlier_px + 0.5 px of the extended line. Returns the supported fraction of
+// the samples inside the image (0 when fewer than 3 are).
+double SideContinuation(const EdgeProbe& probe, const Vec2& corner, const Vec2& u, bool flip,
+                        double length, const SideEdge& edge) {
+  const RectDetectorOptions& o = probe.o;
+  const Vec2 n_side = flip ? Vec2(u.y(), -u.x()) : Vec2(-u.y(), u.x());  // left normal of u_side
+  const double span = o.continuation_frac * length;
+  // One sample per 2 px (at least 4, at most 12): a corner a few pixels from the image border still
+  // gets samples in view.
+  const int kSamples = std::clamp(static_cast<int>(span / 2.0), 4, 12);
+  int valid = 0, support = 0;
+  for (int k = 0; k < kSamples; ++k) {
+    const Vec2 p = corner + (o.continuation_start_px + span * (k + 0.5) / kSamples) * u;
+    Vec2 e;
+    double gradient;
+    int sg;
+    if (!probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign)) {
+      // Outside the image is not evidence either way; no edge inside is evidence against.
+      Vec2 d = probe.cam ? probe.cam->DistortPixel(p) : p;
+      const double r = o.search_px + 1.0;
+      if (d.x() >= r && d.y() >= r && d.x() < probe.smooth.cols - 1 - r &&
+          d.y() < probe.smooth.rows - 1 - r)
+        ++valid;
+      continue;
+    }
+    ++valid;
+    support += sg == edge.sign && std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+  }
+  return valid >= 3 ? static_cast<double>(support) / valid : 0.0;
+}
+
+// Corner reach test (RectDetectorOptions::min_corner_reach): the fraction of points on a side's
+// line between `reach_start_px` and max(reach_min_px, reach_frac x length) from the corner
+// `corner` (u points from the corner into the side) where the side's edge is found (same criteria
+// as SideContinuation). 1 when fewer than 3 points are inside the image.
+double CornerReach(const EdgeProbe& probe, const Vec2& corner, const Vec2& u, bool flip,
+                   double length, const SideEdge& edge) {
+  const RectDetectorOptions& o = probe.o;
+  const Vec2 n_side = flip ? Vec2(u.y(), -u.x()) : Vec2(-u.y(), u.x());
+  const double t0 = o.reach_start_px, t1 = std::max(o.reach_min_px, o.reach_frac * length);
+  constexpr int kSamples = 6;
+  int valid = 0, support = 0;
+  for (int k = 0; k < kSamples; ++k) {
+    const Vec2 p = corner + (t0 + (t1 - t0) * k / (kSamples - 1)) * u;
+    Vec2 e;
+    double gradient;
+    int sg;
+    if (!probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign)) {
+      Vec2 d = probe.cam ? probe.cam->DistortPixel(p) : p;
+      const double r = o.search_px + 1.0;
+      if (d.x() >= r && d.y() >= r && d.x() < probe.smooth.cols - 1 - r &&
+          d.y() < probe.smooth.rows - 1 - r)
+        ++valid;
+      continue;
+    }
+    ++valid;
+    support += std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+  }
+  return valid >= 3 ? static_cast<double>(support) / valid : 1.0;
+}
+
+// True when some corner of the refined quad is not an L-corner: a side continues past it (see
+// SideContinuation; a T-junction, where the object runs on and another line such as a panel
+// groove, a mullion or texture crosses it), or a side's edge stops short of it (see CornerReach; a
+// quad closed by a line a little beyond the object, such as the outer edge of a tag's white
+// margin with the black square's other three sides).
+bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges) {
+  for (int side = 0; side < 4; ++side) {
+    const Vec2 P = c[(side + 3) % 4], Q = c[side];
+    const double L = (Q - P).norm();
+    const Vec2 u = (Q - P) / L;
+    if (probe.o.min_corner_reach > 0.0 &&
+        (CornerReach(probe, Q, -u, true, L, edges[side]) < probe.o.min_corner_reach ||
+         CornerReach(probe, P, u, false, L, edges[side]) < probe.o.min_corner_reach))
+      return true;
+    if (SideContinuation(probe, Q, u, false, L, edges[side]) > probe.o.max_side_continuation ||
+        SideContinuation(probe, P, -u, true, L, edges[side]) > probe.o.max_side_continuation)
+      return true;
+  }
+  return false;
 }
 
 // Mean and standard deviation of the grey values on an n x n grid of the quad's interior (bilinear
@@ -782,18 +919,20 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   std::mt19937 rng(o.seed);
   const double min_gradient = res.canny_low / 8.0;  // Sobel magnitude ≈ 8 x (grey levels per px)
   std::vector<Quad> refined;
+  const EdgeProbe probe(smooth, cam, o);
   for (Quad& q : quads) {
     const RectangleTest pre = ZhangHeTest(q.c, K);
     if (!pre.valid || pre.abs_cos > std::min(1.0, 2.0 * o.max_abs_cos)) continue;
-    if (RefineQuad(smooth, cam, o, min_gradient, &rng, &q)) refined.push_back(q);
+    if (RefineQuad(probe, min_gradient, &rng, &q, &q.edges)) refined.push_back(q);
   }
   res.refined = static_cast<int>(refined.size());
   res.times.Add("refine", sw.Lap());
 
   // 5. verification on the refined corners, canonical order.
-  std::vector<Quad> good;
+  std::vector<Quad> good, cut_off;
   for (Quad& q : refined) {
     if (ShortestSide(q.c) < probe_side) continue;
+    const Corners grouping_order = q.c;  // the order of q.edges
     q.c = CanonicalOrder(q.c, &K, gravity_C);
     const RectangleTest t = ZhangHeTest(q.c, K);
     if (!t.valid || t.abs_cos > o.max_abs_cos) continue;
@@ -805,13 +944,23 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     // Every corner must be seen: a corner outside the image is an extrapolation of sides that run
     // out of the view (the object is cut off; its fourth side is some other line).
     bool in_view = true;
+    double outside = 0.0;  // farthest distance of a corner outside the image [px, distorted]
     for (const Vec2& c : q.c) {
       const Vec2 d = cam ? cam->DistortPixel(c) : c;
-      in_view = in_view && d.x() >= -o.max_corner_outside_px && d.y() >= -o.max_corner_outside_px &&
-                d.x() <= gray.cols - 1 + o.max_corner_outside_px &&
-                d.y() <= gray.rows - 1 + o.max_corner_outside_px;
+      outside = std::max({outside, -d.x(), -d.y(), d.x() - (gray.cols - 1), d.y() - (gray.rows - 1)});
     }
-    if (!in_view) continue;
+    in_view = outside <= o.max_corner_outside_px;
+    if (!in_view) {
+      // A rectangle cut off by the image border by a little (a door whose bottom corners are just
+      // out of view) is not reported, but what lies inside it (the door leaf, its panels) is part of
+      // it: kept to suppress those.
+      if (outside <= o.container_outside_frac * ShortestSide(q.c)) cut_off.push_back(q);
+      continue;
+    }
+    // Last (the costliest test): every corner is an L-corner.
+    if ((o.max_side_continuation < 1.0 || o.min_corner_reach > 0.0) &&
+        HasTJunction(probe, grouping_order, q.edges))
+      continue;
     good.push_back(q);
   }
   for (const Quad& q : good) res.verified_quads.emplace_back(q.c, q.score);
@@ -938,6 +1087,19 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
         bool inside = true;
         for (const Vec2& p : q.c) inside = inside && InsideConvex(grown, p);
         contained = contained || inside;
+      }
+      for (const Quad& u : cut_off) {
+        if (contained || u.area <= q.area) continue;
+        const Vec2 centre = 0.25 * (u.c[0] + u.c[1] + u.c[2] + u.c[3]);
+        Corners grown;
+        for (int i = 0; i < 4; ++i) {
+          const Vec2 r = u.c[i] - centre;
+          grown[i] = u.c[i] + 2.0 * r / std::max(r.norm(), 1e-9);
+        }
+        bool inside = true;
+        for (const Vec2& p : q.c) inside = inside && InsideConvex(grown, p);
+        contained = inside && !(o.prefer_inner_of_bright_margin &&
+                                IsBrightMargin(smooth, cam, u.c, q.c, o));
       }
       if (!contained) outer_only.push_back(q);
     }

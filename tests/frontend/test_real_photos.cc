@@ -28,13 +28,14 @@ void ExpectCornersNear(const Corners& got, const Corners& hand, double tol_px) {
 }
 
 // EuRoC V1_01 in-flight frame left_img_2 with its calibration: the Kalibr AprilGrid board leaning
-// on the mattress box, and the step ladder behind it (two rails and two rungs form a true
-// rectangle).
+// on the mattress box. (The step ladder behind it, two rails and the lowest rung closed by the
+// image's top, was found as a second rectangle before the T-junction test: its rails run on past
+// the rung, so the rung's ends are not corners, and it is no longer reported.)
 TEST(RealPhotos, EurocCalibrationBoard) {
   FSP_REQUIRE_TEST_DATA(dir, "euroc_v101_micro/inflight_frames_kimera_lcd");
   const Calibration calib = ReadCalibration(dir + "/sensorLeft.yaml");
   const auto res = RectDetector().Detect(ReadGray8(dir + "/left_img_2.png"), &calib.camera);
-  ASSERT_EQ(res.detections.size(), 2u);
+  ASSERT_EQ(res.detections.size(), 1u);
   // Hand-measured board corners s1..s4 (bottom-left, bottom-right, top-right, top-left).
   const Corners board = {Vec2(349.75, 436.39), Vec2(485.66, 365.67), Vec2(491.51, 209.63),
                          Vec2(334.16, 243.48)};
@@ -46,11 +47,6 @@ TEST(RealPhotos, EurocCalibrationBoard) {
     EXPECT_LT(
         (calib.camera.UndistortPixel(best.corners_px[i]) - best.corners_undistorted[i]).norm(),
         1e-6);
-  // Second: the ladder (rails x ~ 330-375, from the top of the image to the lowest rung at v ~
-  // 125).
-  const Detection& ladder = res.detections[1];
-  EXPECT_NEAR(ladder.corners_px[0].x(), 336.2, 1.0);
-  EXPECT_NEAR(ladder.corners_px[0].y(), 125.5, 1.0);
 }
 
 // The same board from the paired view left_img_3 (no hand measurement; pins the count and
@@ -65,19 +61,14 @@ TEST(RealPhotos, EurocCalibrationBoardSecondView) {
   ExpectCornersNear(res.detections[0].corners_px, pinned, 1.0);
 }
 
-// sudoku.png: the printed grid on curled paper. The outer square is NOT found as a whole: its top
-// side bends by ~8 deg towards the top-right corner (three straight pieces at 0, -3.4 and -7.6
-// deg), so no single straight side closes the quad. What is found is one quad from the square's
-// left side, the top side's straight left part, the middle block line and a line of the strip below
-// the grid; its top-left corner is the square's top-left corner, which is checked against the hand
-// measurement.
-TEST(RealPhotos, SudokuTopLeftCorner) {
+// sudoku.png: the printed grid on curled paper. The outer square is NOT found yet: its top side
+// bends by ~8 deg towards the top-right corner (three straight pieces at 0, -3.4 and -7.6 deg), so
+// no single straight side closes the quad. (A quad closed by a line of the strip below the grid
+// was found before the corner reach test; its corners are not where its sides' edges end.)
+TEST(RealPhotos, SudokuOuterSquareNotFoundYet) {
   FSP_REQUIRE_TEST_DATA(path, "opencv_samples/sudoku.png");
   const auto res = RectDetector().Detect(ReadGray8(path));
-  ASSERT_EQ(res.detections.size(), 1u);
-  const Vec2 top_left_hand(71.74, 83.71);  // outer edges of the square's border line
-  EXPECT_LT((res.detections[0].corners_px[3] - top_left_hand).norm(), 1.0)
-      << res.detections[0].corners_px[3].transpose();
+  EXPECT_EQ(res.detections.size(), 0u);
 }
 
 // building.jpg: a facade whose windows and panels line up in rows and columns. Their sides are

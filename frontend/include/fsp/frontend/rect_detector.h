@@ -20,8 +20,10 @@
 //                 sides.
 //  5. "verify":   rectangle test with K (Zhang-He: the 3-D edges of a true rectangle are
 //  perpendicular),
-//                 every corner inside the image (`max_corner_outside_px`), edge support score,
-//                 class guess.
+//                 every corner inside the image (`max_corner_outside_px`; a quad just cut off by
+//                 the border is kept as a container, see `container_outside_frac`), every corner
+//                 an L-corner (no side runs on past it, every side reaches it:
+//                 `max_side_continuation`, `min_corner_reach`), edge support score, class guess.
 //  6. "nms":      duplicates (same corners within a tolerance) keep the best score; nesting rule
 //  below.
 //
@@ -91,7 +93,7 @@ struct RectDetectorOptions {
   double min_corner_angle_deg = 25.0;
   // A junction of two segments: their intersection may lie beyond a segment's end (the side's edge
   // fades or is occluded near the corner) by up to this fraction of the segment's length...
-  double junction_gap_frac = 0.25;
+  double junction_gap_frac = 0.3;
   // ...or inside the segment (the segment runs past the corner) by this fraction. Small on purpose:
   // crossing lines (grids, frames that run on) are not corners, or every cell of a grid would be a
   // rectangle.
@@ -124,6 +126,27 @@ struct RectDetectorOptions {
   // Least fraction of a side's samples that must be inliers of its line (edge support). Higher
   // rejects partly occluded rectangles.
   double min_side_support = 0.5;
+  // T-junction test: a side's edge must end at its corners. Edge points are searched on the side's
+  // line extended past each corner, from `continuation_start_px` (clear of the other side's
+  // blurred edge) over `continuation_frac` x the side's length; a point counts when its gradient
+  // peak has the side's polarity, at least half the side's median gradient and lies on the
+  // extended line. When more than `max_side_continuation` of the points inside the image count,
+  // the object runs on past the "corner" and the quad (a cut-off door closed by a panel groove, a
+  // window cut by the image border closed by a mullion) is rejected. 1 switches the test off;
+  // lower also rejects objects whose side is collinear with a neighbouring edge of the same
+  // polarity (a door's bottom on a floor line as dark as the door frame).
+  double max_side_continuation = 0.3;
+  double continuation_start_px = 4.0;
+  double continuation_frac = 0.3;
+  // Corner reach test: each side's edge must reach its corners. Points on the side's line from
+  // `reach_start_px` to max(`reach_min_px`, `reach_frac` x the side's length) from each corner are
+  // searched like the continuation; fewer than `min_corner_reach` of them on the edge rejects the
+  // quad (its corner lies beyond where the side's edge ends: a tag's black square closed on one
+  // side by the outer edge of its white margin). 0 switches the test off.
+  double min_corner_reach = 0.5;
+  double reach_start_px = 2.0;
+  double reach_min_px = 6.0;
+  double reach_frac = 0.1;
 
   // --- 5. verification ---
   // Largest |cos| of the 3-D angle between adjacent sides (Zhang-He); 0.2 is 90 +- 11.5 deg.
@@ -137,6 +160,10 @@ struct RectDetectorOptions {
   // observed: the sides that meet there run out of view and the quad is usually closed by another
   // line (a cut-off door closed by its panel groove). Larger keeps such guesses.
   double max_corner_outside_px = 1.0;
+  // A rectangle with a corner outside the image by at most this fraction of its shortest side is
+  // not reported but still suppresses the rectangles inside it (with `drop_contained`): a door
+  // whose bottom corners are just out of view hides its leaf and panels. 0 switches this off.
+  double container_outside_frac = 0.25;
   // Guess classes (door, window, poster, cabinet) from shape, brightness and texture.
   bool guess_class = true;
 
