@@ -78,6 +78,16 @@ struct Seg {
   Vec2 a, b;
   Vec2 dir;  // unit, a → b
   double len = 0.0;
+  // A slowly bending edge (curled paper): the polyline a = path[0], ..., path.back() = b through
+  // the straight pieces it was built from; empty for a straight segment. Its corners come from the
+  // first and last pieces (see CurvedChains).
+  std::vector<Vec2> path;
+  // Line of the piece at end 0 (a) or 1 (b).
+  Vec2 EndDir(int end) const {
+    if (path.size() < 2) return dir;
+    const Vec2 d = end == 0 ? Vec2(path[1] - path[0]) : Vec2(path.back() - path[path.size() - 2]);
+    return d.normalized();
+  }
 };
 
 Seg MakeSeg(const Vec2& a, const Vec2& b) {
@@ -100,6 +110,15 @@ Line LineOf(const Seg& s) {
   Line l;
   l.n = Vec2(-s.dir.y(), s.dir.x());
   l.c = l.n.dot(s.a);
+  return l;
+}
+
+// Line of the piece at end 0 (a) or 1 (b) of a segment (its own line when straight).
+Line EndLine(const Seg& s, int end) {
+  const Vec2 d = s.EndDir(end);
+  Line l;
+  l.n = Vec2(-d.y(), d.x());
+  l.c = l.n.dot(end == 0 ? s.a : s.b);
   return l;
 }
 
@@ -275,6 +294,51 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
   return out;
 }
 
+// Slowly bending edges (curled paper, a page's edge near the binding): straight pieces where the end
+// of one touches the start of the next (within `touch_px`), with the same polarity and directions
+// within `step_deg`, are chained; a chain of at least two pieces whose first and last directions
+// differ by at most `total_deg` becomes one curved segment (the chord, with the pieces' polyline).
+// The pieces stay segments of their own.
+std::vector<Seg> CurvedChains(const std::vector<Seg>& segs, double touch_px, double step_deg,
+                              double total_deg) {
+  const int n = static_cast<int>(segs.size());
+  const double cos_step = std::cos(step_deg * M_PI / 180.0);
+  const double cos_total = std::cos(total_deg * M_PI / 180.0);
+  std::vector<int> next(n, -1), prev_count(n, 0);
+  for (int i = 0; i < n; ++i) {
+    double best = touch_px * touch_px;
+    for (int j = 0; j < n; ++j) {
+      if (j == i || segs[i].dir.dot(segs[j].dir) < cos_step) continue;
+      const double d2 = (segs[i].b - segs[j].a).squaredNorm();
+      if (d2 <= best) {
+        best = d2;
+        next[i] = j;
+      }
+    }
+    if (next[i] >= 0) ++prev_count[next[i]];
+  }
+  std::vector<Seg> out;
+  std::vector<char> used(n, 0);
+  for (int head = 0; head < n; ++head) {
+    if (prev_count[head] != 0) continue;  // chains start at a piece nothing leads into
+    std::vector<int> chain = {head};
+    used[head] = 1;
+    for (int k = next[head]; k >= 0 && !used[k]; k = next[k]) {
+      if (segs[head].dir.dot(segs[k].dir) < cos_total) break;
+      chain.push_back(k);
+      used[k] = 1;
+    }
+    if (chain.size() < 2) continue;
+    Seg c = MakeSeg(segs[chain.front()].a, segs[chain.back()].b);
+    c.path.push_back(segs[chain.front()].a);
+    for (size_t k = 0; k + 1 < chain.size(); ++k)
+      c.path.push_back(0.5 * (segs[chain[k]].b + segs[chain[k + 1]].a));
+    c.path.push_back(segs[chain.back()].b);
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
 // Edge linking: traces 8-connected chains of Canny pixels (consumes `edges`). At each step the
 // unvisited neighbour that best continues the current direction is taken; branches become chains of
 // their own. Each chain is traced from its seed in both directions.
@@ -412,11 +476,15 @@ int JunctionEnd(const Seg& s, const Vec2& x, const RectDetectorOptions& o) {
 struct SideEdge {
   int sign = 1;
   double gradient = 0.0;
+  // A curved side (see CurvedChains): its unit directions at c[i-1] and c[i] (towards c[i]).
+  bool curved = false;
+  Vec2 dir_start = Vec2(1.0, 0.0), dir_end = Vec2(1.0, 0.0);
 };
 
 struct Quad {
   Corners c;  // undistorted px, grouping order (a∩b, b∩c, c∩d, d∩a)
   std::array<SideEdge, 4> edges;  // side i joins c[i-1] and c[i] (grouping order, set by refinement)
+  std::array<int, 4> seg = {-1, -1, -1, -1};  // segment of side i (grouping)
   double score = 0.0;
   double abs_cos = 1.0;
   double aspect_w_h = 1.0;  // metric width / height after canonical ordering
@@ -531,33 +599,64 @@ struct EdgeProbe {
 // RANSAC line; when the lines fitted to its two halves disagree with it by more than `bend_px` at
 // the corners (a bent side: paper, residual distortion), each corner is taken from the half-lines
 // next to it.
-bool RefineQuad(const EdgeProbe& probe, double min_gradient, std::mt19937* rng, Quad* q,
-                std::array<SideEdge, 4>* side_edges) {
+bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min_gradient,
+                std::mt19937* rng, Quad* q, std::array<SideEdge, 4>* side_edges) {
   const RectDetectorOptions& o = probe.o;
   std::array<Line, 4> start_line, end_line;  // line used at the side's first / last corner
   double support_sum = 0.0;
-  std::vector<Vec2> pts;
-  std::vector<double> w, ts;
+  std::vector<Vec2> pts, poly;
+  std::vector<double> w, ts, cum;
   std::vector<int> sign;
   for (int side = 0; side < 4; ++side) {
     const Vec2 P = q->c[(side + 3) % 4], Q = q->c[side];
-    const double L = (Q - P).norm();
-    const Vec2 u = (Q - P) / L, n(-u.y(), u.x());
-    const double margin = std::max(o.corner_margin_frac * L, 1.0);
+    // The side is sampled along its segment's polyline when curved (P, the pieces' joints, Q),
+    // else along the straight line P → Q.
+    poly.assign({P, Q});
+    const Seg* sg_side = q->seg[side] >= 0 ? &segs[q->seg[side]] : nullptr;
+    const bool curved = sg_side && sg_side->path.size() > 2;
+    if (curved) {
+      const auto& path = sg_side->path;
+      const bool forward = (path.front() - P).squaredNorm() <= (path.back() - P).squaredNorm();
+      poly.assign(1, P);
+      for (size_t k = 1; k + 1 < path.size(); ++k)
+        poly.push_back(forward ? path[k] : path[path.size() - 1 - k]);
+      poly.push_back(Q);
+    }
+    cum.assign(1, 0.0);
+    for (size_t k = 1; k < poly.size(); ++k) cum.push_back(cum.back() + (poly[k] - poly[k - 1]).norm());
+    const double L = cum.back();
+    if (!(L > 1.0)) return false;
+    const Vec2 u = (Q - P).normalized();
+    // The segment's polarity fixes the side's: only edges of that polarity are searched (a thin
+    // line's other edge, a groove's, is not the side). Segments are brighter towards (dy, -dx)
+    // (see the segments stage), the opposite of n = (-u.y, u.x) here when they run along u.
+    const int want_sign =
+        o.polarity_from_segment && sg_side ? (sg_side->dir.dot(u) > 0.0 ? -1 : 1) : 0;
+    // A curved side is sampled every 3 px from close to its corners, and each corner comes from
+    // the stretch of its end piece nearest to it (`curved_corner_frac`): the rest of a curled
+    // page's edge wanders by a pixel or more.
+    const double margin = curved ? std::max(o.search_px + 1.0, 0.01 * L)
+                                 : std::max(o.corner_margin_frac * (Q - P).norm(), 1.0);
     const int k_samples =
-        std::max(8, std::min(o.samples_per_side, static_cast<int>(L - 2 * margin)));
+        curved ? std::clamp(static_cast<int>((L - 2 * margin) / 3.0), o.samples_per_side, 200)
+               : std::max(8, std::min(o.samples_per_side, static_cast<int>(L - 2 * margin)));
     pts.clear();
     w.clear();
     ts.clear();
     sign.clear();
-    int pos = 0, neg = 0;
+    int pos = 0, neg = 0, on_path = 0;
+    size_t piece = 0;
     for (int k = 0; k < k_samples; ++k) {
       const double t = margin + (L - 2 * margin) * (k + 0.5) / k_samples;
+      while (piece + 2 < poly.size() && t > cum[piece + 1]) ++piece;
+      const Vec2 ue = (poly[piece + 1] - poly[piece]).normalized(), n(-ue.y(), ue.x());
+      const Vec2 p = poly[piece] + (t - cum[piece]) * ue;
       Vec2 e;
       double gradient;
       int sg;
-      if (!probe.Peak(P + t * u, n, min_gradient, &e, &gradient, &sg)) continue;
+      if (!probe.Peak(p, n, min_gradient, &e, &gradient, &sg, want_sign)) continue;
       (sg > 0 ? pos : neg)++;
+      on_path += std::abs(n.dot(e - p)) <= 1.0;
       pts.push_back(e);
       w.push_back(gradient);
       ts.push_back(t);
@@ -567,17 +666,40 @@ bool RefineQuad(const EdgeProbe& probe, double min_gradient, std::mt19937* rng, 
     const int keep = pos >= neg ? 1 : -1;
     std::vector<int> all, first, second;
     std::vector<double> grads;
+    // Halves of a straight side; the end pieces of a curved one.
+    const double corner_stretch = margin + std::max(30.0, o.curved_corner_frac * L);
+    const double first_end = curved ? std::min(cum[1], corner_stretch) : 0.5 * L;
+    const double second_start =
+        curved ? std::max(cum[cum.size() - 2], L - corner_stretch) : 0.5 * L;
     for (size_t i = 0; i < pts.size(); ++i) {
       if (sign[i] != keep) continue;
       all.push_back(static_cast<int>(i));
       grads.push_back(w[i]);
-      (ts[i] < 0.5 * L ? first : second).push_back(static_cast<int>(i));
+      if (ts[i] < first_end) first.push_back(static_cast<int>(i));
+      if (ts[i] >= second_start) second.push_back(static_cast<int>(i));
     }
     const int need = static_cast<int>(std::ceil(o.min_side_support * k_samples));
     if (static_cast<int>(all.size()) < std::max(need, 2)) return false;
     std::nth_element(grads.begin(), grads.begin() + grads.size() / 2, grads.end());
     (*side_edges)[side].sign = keep;
     (*side_edges)[side].gradient = grads[grads.size() / 2];
+    (*side_edges)[side].curved = curved;
+    if (curved) {
+      Line l1, l2;
+      const int n1 = RansacLine(pts, w, first, o.ransac_inlier_px, o.ransac_iterations, rng, &l1);
+      const int n2 = RansacLine(pts, w, second, o.ransac_inlier_px, o.ransac_iterations, rng, &l2);
+      if (n1 < 3 || n2 < 3 || on_path < need) return false;
+      start_line[side] = l1;
+      end_line[side] = l2;
+      // Directions along the end lines, pointing from P towards Q.
+      for (const auto& [line, dir] : {std::make_pair(&l1, &(*side_edges)[side].dir_start),
+                                      std::make_pair(&l2, &(*side_edges)[side].dir_end)}) {
+        *dir = Vec2(line->n.y(), -line->n.x());
+        if (dir->dot(u) < 0.0) *dir = -*dir;
+      }
+      support_sum += static_cast<double>(on_path) / k_samples;
+      continue;
+    }
     Line global;
     const int n_global =
         RansacLine(pts, w, all, o.ransac_inlier_px, o.ransac_iterations, rng, &global);
@@ -632,7 +754,9 @@ double SideContinuation(const EdgeProbe& probe, const Vec2& corner, const Vec2& 
   // One sample per 2 px (at least 4, at most 12): a corner a few pixels from the image border still
   // gets samples in view.
   const int kSamples = std::clamp(static_cast<int>(span / 2.0), 4, 12);
-  int valid = 0, support = 0;
+  // Support counts in runs of consecutive samples (the longest run): an edge that runs on is
+  // continuous, scattered hits (text, texture beyond the corner) are not.
+  int valid = 0, run = 0, longest = 0;
   for (int k = 0; k < kSamples; ++k) {
     const Vec2 p = corner + (o.continuation_start_px + span * (k + 0.5) / kSamples) * u;
     Vec2 e;
@@ -643,14 +767,17 @@ double SideContinuation(const EdgeProbe& probe, const Vec2& corner, const Vec2& 
       Vec2 d = probe.cam ? probe.cam->DistortPixel(p) : p;
       const double r = o.search_px + 1.0;
       if (d.x() >= r && d.y() >= r && d.x() < probe.smooth.cols - 1 - r &&
-          d.y() < probe.smooth.rows - 1 - r)
+          d.y() < probe.smooth.rows - 1 - r) {
         ++valid;
+        run = 0;
+      }
       continue;
     }
     ++valid;
-    support += sg == edge.sign && std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+    run = std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5 ? run + 1 : 0;
+    longest = std::max(longest, run);
   }
-  return valid >= 3 ? static_cast<double>(support) / valid : 0.0;
+  return valid >= 3 ? static_cast<double>(longest) / valid : 0.0;
 }
 
 // Corner reach test (RectDetectorOptions::min_corner_reach): the fraction of points on a side's
@@ -680,7 +807,8 @@ double CornerReach(const EdgeProbe& probe, const Vec2& corner, const Vec2& u, bo
     ++valid;
     support += std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
   }
-  return valid >= 3 ? static_cast<double>(support) / valid : 1.0;
+  if (valid < 3) return 1.0;
+  return static_cast<double>(support) / valid;
 }
 
 // True when some corner of the refined quad is not an L-corner: a side continues past it (see
@@ -693,12 +821,14 @@ bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<Sid
     const Vec2 P = c[(side + 3) % 4], Q = c[side];
     const double L = (Q - P).norm();
     const Vec2 u = (Q - P) / L;
+    const Vec2 us = edges[side].curved ? edges[side].dir_start : u;
+    const Vec2 ue = edges[side].curved ? edges[side].dir_end : u;
     if (probe.o.min_corner_reach > 0.0 &&
-        (CornerReach(probe, Q, -u, true, L, edges[side]) < probe.o.min_corner_reach ||
-         CornerReach(probe, P, u, false, L, edges[side]) < probe.o.min_corner_reach))
+        (CornerReach(probe, Q, -ue, true, L, edges[side]) < probe.o.min_corner_reach ||
+         CornerReach(probe, P, us, false, L, edges[side]) < probe.o.min_corner_reach))
       return true;
-    if (SideContinuation(probe, Q, u, false, L, edges[side]) > probe.o.max_side_continuation ||
-        SideContinuation(probe, P, -u, true, L, edges[side]) > probe.o.max_side_continuation)
+    if (SideContinuation(probe, Q, ue, false, L, edges[side]) > probe.o.max_side_continuation ||
+        SideContinuation(probe, P, -us, true, L, edges[side]) > probe.o.max_side_continuation)
       return true;
   }
   return false;
@@ -852,6 +982,9 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   segs.erase(
       std::remove_if(segs.begin(), segs.end(), [&](const Seg& sg) { return sg.len < min_seg; }),
       segs.end());
+  if (o.curved_step_deg > 0.0)
+    for (Seg& c : CurvedChains(segs, o.merge_line_px, o.curved_step_deg, o.curved_total_deg))
+      segs.push_back(std::move(c));
   res.segments = static_cast<int>(segs.size());
   for (const Seg& sg : segs) res.segment_ends.emplace_back(sg.a, sg.b);
   res.times.Add("segments", sw.Lap());
@@ -875,12 +1008,22 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
           std::min({(segs[i].a - segs[j].a).squaredNorm(), (segs[i].a - segs[j].b).squaredNorm(),
                     (segs[i].b - segs[j].a).squaredNorm(), (segs[i].b - segs[j].b).squaredNorm()});
       if (dmin2 > reach * reach) continue;
+      // A curved segment meets the other one with the piece at its nearer end.
+      auto near_end = [](const Seg& s1, const Seg& s2) {
+        const double da = std::min((s1.a - s2.a).squaredNorm(), (s1.a - s2.b).squaredNorm());
+        const double db = std::min((s1.b - s2.a).squaredNorm(), (s1.b - s2.b).squaredNorm());
+        return da <= db ? 0 : 1;
+      };
+      const int ni = segs[i].path.empty() ? -1 : near_end(segs[i], segs[j]);
+      const int nj = segs[j].path.empty() ? -1 : near_end(segs[j], segs[i]);
       Vec2 x;
-      if (!Intersect(seg_lines[i], seg_lines[j], &x)) continue;
+      if (!Intersect(ni < 0 ? seg_lines[i] : EndLine(segs[i], ni),
+                     nj < 0 ? seg_lines[j] : EndLine(segs[j], nj), &x))
+        continue;
       const int ei = JunctionEnd(segs[i], x, o);
-      if (ei < 0) continue;
+      if (ei < 0 || (ni >= 0 && ei != ni)) continue;
       const int ej = JunctionEnd(segs[j], x, o);
-      if (ej < 0) continue;
+      if (ej < 0 || (nj >= 0 && ej != nj)) continue;
       ends[i][ei].push_back({j, ej, x});
       ends[j][ej].push_back({i, ei, x});
     }
@@ -904,6 +1047,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
             if (ja.seg != a || ja.end != 0) continue;
             Quad q;
             q.c = {jb.x, jc.x, jd.x, ja.x};
+            q.seg = {a, b, c, d};
             if (!IsConvex(q.c) || ShortestSide(q.c) < probe_side) continue;
             quads.push_back(q);
           }
@@ -923,7 +1067,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   for (Quad& q : quads) {
     const RectangleTest pre = ZhangHeTest(q.c, K);
     if (!pre.valid || pre.abs_cos > std::min(1.0, 2.0 * o.max_abs_cos)) continue;
-    if (RefineQuad(probe, min_gradient, &rng, &q, &q.edges)) refined.push_back(q);
+    if (RefineQuad(probe, segs, min_gradient, &rng, &q, &q.edges)) refined.push_back(q);
   }
   res.refined = static_cast<int>(refined.size());
   res.times.Add("refine", sw.Lap());

@@ -61,14 +61,47 @@ TEST(RealPhotos, EurocCalibrationBoardSecondView) {
   ExpectCornersNear(res.detections[0].corners_px, pinned, 1.0);
 }
 
-// sudoku.png: the printed grid on curled paper. The outer square is NOT found yet: its top side
-// bends by ~8 deg towards the top-right corner (three straight pieces at 0, -3.4 and -7.6 deg), so
-// no single straight side closes the quad. (A quad closed by a line of the strip below the grid
-// was found before the corner reach test; its corners are not where its sides' edges end.)
-TEST(RealPhotos, SudokuOuterSquareNotFoundYet) {
+// sudoku.png: the printed grid on curled paper; its outer square is a dark border line 3-4 px wide
+// whose top side bends by ~8 deg towards the top-right corner (straight pieces at ~0, -3.4 and -7.6
+// deg), with the black title band 3 px above its top-left part.
+//
+// Hand-measured corners of the square's OUTER edges (method above; grey = 0.299 R + 0.587 G +
+// 0.114 B; profiles 10-40 px from each corner): left edge at (70.34, 100), (68.62, 120) and
+// (37.15, 470), (35.43, 490); top edge at (90, 84.47), (110, 85.33) and (470, 71.19),
+// (480, 69.69); right edge at (493.15, 90), (494.43, 110) and (517.73, 470), (518.83, 490); bottom
+// edge at (60, 516.74), (80, 516.94) and (480, 521.54), (500, 521.76).
+const Corners kSudokuOuter = {Vec2(33.15, 516.47), Vec2(520.59, 521.99), Vec2(491.74, 67.93),
+                              Vec2(71.74, 83.68)};
+
+// The bent top side becomes one curved segment (its straight pieces chained), sampled along the
+// pieces; each corner comes from the stretch of the side next to it. That quad is refined to
+// within 1 px of the hand-measured corners. It is NOT reported with the default options: beyond
+// the top-right corner the shadowed page edge runs on along the top side's line (4 of 12
+// continuation samples, above `max_side_continuation` = 0.3), and variants that take the title
+// band's edge or the border line's inner edges for some sides score higher (the wavy curled edge
+// has less support). With the continuation threshold at 0.34 the quad is verified (it is then
+// suppressed as a variant of the title-band outline, see `verified_quads`).
+TEST(RealPhotos, SudokuOuterSquareCorners) {
   FSP_REQUIRE_TEST_DATA(path, "opencv_samples/sudoku.png");
-  const auto res = RectDetector().Detect(ReadGray8(path));
-  EXPECT_EQ(res.detections.size(), 0u);
+  RectDetector::Options o;
+  o.max_side_continuation = 0.34;
+  const auto res = RectDetector(o).Detect(ReadGray8(path));
+  double best = 1e9;
+  const Corners* found = nullptr;
+  for (const auto& [quad, score] : res.verified_quads) {
+    const double e = CornerDistanceBestShift(quad, kSudokuOuter);
+    if (e < best) {
+      best = e;
+      found = &quad;
+    }
+  }
+  ASSERT_NE(found, nullptr);
+  ExpectCornersNear(*found, kSudokuOuter, 1.0);  // 0.60, 0.45, 0.29, 0.68 px measured
+  // With the default options one detection: the border line's inner edges closed by the outer
+  // edge at the top (a variant of the square, within 7 px of the outer corners).
+  const auto def = RectDetector().Detect(ReadGray8(path));
+  ASSERT_EQ(def.detections.size(), 1u);
+  EXPECT_LT(CornerDistanceBestShift(def.detections[0].corners_px, kSudokuOuter), 7.0);
 }
 
 // building.jpg: a facade whose windows and panels line up in rows and columns. Their sides are

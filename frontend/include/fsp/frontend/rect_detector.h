@@ -85,6 +85,16 @@ struct RectDetectorOptions {
   double merge_angle_deg = 3.0;
   double merge_line_px = 2.0;
   double merge_gap_frac = 0.04;
+  // Slowly bending edges (curled paper): straight pieces that continue each other (the end of one
+  // at the start of the next, same polarity) with directions within `curved_step_deg` of each
+  // other also form one curved segment when their first and last directions differ by at most
+  // `curved_total_deg`; such a side is sampled along its pieces and its corners come from the
+  // lines fitted to its end pieces. 0 switches this off.
+  double curved_step_deg = 6.0;
+  double curved_total_deg = 15.0;
+  // Stretch of a curved side next to each corner that the corner's line is fitted to [fraction of
+  // the side's length, at least 30 px].
+  double curved_corner_frac = 0.1;
 
   // --- 3. grouping ---
   // Shortest side of a rectangle [fraction of the image diagonal]; 0.04 is ~32 px at 640x480.
@@ -107,6 +117,9 @@ struct RectDetectorOptions {
   // Half-length of the 1-D edge search along a side's normal [px]. Must cover the segment's error
   // (about one pixel) but stay below the distance to neighbouring parallel edges.
   double search_px = 2.5;
+  // Search only edges of the polarity of the side's segment (brighter on the same side). Keeps a
+  // side on the edge it was found on when a thin line or groove has two edges within the search.
+  bool polarity_from_segment = true;
   // Sample spacing along the normal [px] (bilinear interpolation).
   double search_step_px = 0.5;
   // Edge samples per side (fewer: faster, noisier lines).
