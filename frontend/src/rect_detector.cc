@@ -7,7 +7,6 @@
 #include <random>
 #include <sstream>
 
-#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include "fsp/common/error.h"
@@ -130,6 +129,14 @@ bool Intersect(const Line& l1, const Line& l2, Vec2* x) {
   return true;
 }
 
+// Unit eigenvector of the larger eigenvalue of a symmetric 2x2 matrix S = [a b; b c] (the major
+// axis of a scatter matrix), in closed form: the axis makes the angle θ = atan2(2b, a − c) / 2 with
+// x (an iterative eigen solver cost ~2 % of the detector's time).
+inline Vec2 MajorAxis(const Mat2& S) {
+  const double theta = 0.5 * std::atan2(2.0 * S(0, 1), S(0, 0) - S(1, 1));
+  return Vec2(std::cos(theta), std::sin(theta));
+}
+
 // Weighted total least squares line: the normal is the eigenvector of the smallest eigenvalue of
 // the weighted scatter matrix about the weighted centroid.
 bool FitLineTls(const std::vector<Vec2>& pts, const std::vector<double>& w,
@@ -148,8 +155,8 @@ bool FitLineTls(const std::vector<Vec2>& pts, const std::vector<double>& w,
     const Vec2 d = pts[i] - mu;
     S += w[i] * d * d.transpose();
   }
-  Eigen::SelfAdjointEigenSolver<Mat2> es(S);
-  line->n = es.eigenvectors().col(0).normalized();
+  const Vec2 dir = MajorAxis(S);
+  line->n = Vec2(-dir.y(), dir.x());
   line->c = line->n.dot(mu);
   return true;
 }
@@ -305,9 +312,18 @@ std::vector<Seg> CurvedChains(const std::vector<Seg>& segs, double touch_px, dou
   const double cos_step = std::cos(step_deg * M_PI / 180.0);
   const double cos_total = std::cos(total_deg * M_PI / 180.0);
   std::vector<int> next(n, -1), prev_count(n, 0);
+  // Candidates j for "i's end b touches j's start a", found by start x (sorted).
+  std::vector<int> by_ax(n);
+  std::iota(by_ax.begin(), by_ax.end(), 0);
+  std::sort(by_ax.begin(), by_ax.end(), [&](int x, int y) { return segs[x].a.x() < segs[y].a.x(); });
+  std::vector<double> ax(n);
+  for (int k = 0; k < n; ++k) ax[k] = segs[by_ax[k]].a.x();
   for (int i = 0; i < n; ++i) {
     double best = touch_px * touch_px;
-    for (int j = 0; j < n; ++j) {
+    const auto lo = std::lower_bound(ax.begin(), ax.end(), segs[i].b.x() - touch_px);
+    const auto hi = std::upper_bound(ax.begin(), ax.end(), segs[i].b.x() + touch_px);
+    for (auto it = lo; it != hi; ++it) {
+      const int j = by_ax[it - ax.begin()];
       if (j == i || segs[i].dir.dot(segs[j].dir) < cos_step) continue;
       const double d2 = (segs[i].b - segs[j].a).squaredNorm();
       if (d2 <= best) {
@@ -450,8 +466,7 @@ void SplitChain(const std::vector<cv::Point>& c, int i0, int i1, double tol_px, 
     const Vec2 e = Vec2(c[i].x, c[i].y) - mu;
     S += e * e.transpose();
   }
-  Eigen::SelfAdjointEigenSolver<Mat2> es(S);
-  const Vec2 dir = es.eigenvectors().col(1);
+  const Vec2 dir = MajorAxis(S);
   out->emplace_back(mu + dir * dir.dot(a - mu), mu + dir * dir.dot(b - mu));
 }
 
@@ -485,6 +500,7 @@ struct Quad {
   Corners c;  // undistorted px, grouping order (a∩b, b∩c, c∩d, d∩a)
   std::array<SideEdge, 4> edges;  // side i joins c[i-1] and c[i] (grouping order, set by refinement)
   std::array<int, 4> seg = {-1, -1, -1, -1};  // segment of side i (grouping)
+  Corners c_grouping;  // refined corners in grouping order (the order of `edges`)
   double score = 0.0;
   double abs_cos = 1.0;
   double aspect_w_h = 1.0;  // metric width / height after canonical ordering
@@ -605,7 +621,7 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
   std::array<Line, 4> start_line, end_line;  // line used at the side's first / last corner
   double support_sum = 0.0;
   std::vector<Vec2> pts, poly;
-  std::vector<double> w, ts, cum;
+  std::vector<double> w, ts, cum, t_list;
   std::vector<int> sign;
   for (int side = 0; side < 4; ++side) {
     const Vec2 P = q->c[(side + 3) % 4], Q = q->c[side];
@@ -637,17 +653,32 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
     // page's edge wanders by a pixel or more.
     const double margin = curved ? std::max(o.search_px + 1.0, 0.01 * L)
                                  : std::max(o.corner_margin_frac * (Q - P).norm(), 1.0);
-    const int k_samples =
-        curved ? std::clamp(static_cast<int>((L - 2 * margin) / 3.0), o.samples_per_side, 200)
-               : std::max(8, std::min(o.samples_per_side, static_cast<int>(L - 2 * margin)));
+    // Sample positions along the side: evenly spaced on a straight side; on a curved one every
+    // 3 px in the stretch next to each corner and `samples_per_side` / 2 in between.
+    const double corner_stretch = margin + std::max(30.0, o.curved_corner_frac * L);
+    t_list.clear();
+    if (!curved) {
+      const int k = std::max(8, std::min(o.samples_per_side, static_cast<int>(L - 2 * margin)));
+      for (int i = 0; i < k; ++i) t_list.push_back(margin + (L - 2 * margin) * (i + 0.5) / k);
+    } else {
+      const double stretch = std::min(corner_stretch, 0.5 * L) - margin;
+      const int k_end = std::max(3, static_cast<int>(stretch / 3.0));
+      for (int i = 0; i < k_end; ++i) t_list.push_back(margin + stretch * (i + 0.5) / k_end);
+      const double mid = L - 2 * (margin + stretch);
+      const int k_mid = mid > 0.0 ? o.samples_per_side / 2 : 0;
+      for (int i = 0; i < k_mid; ++i)
+        t_list.push_back(margin + stretch + mid * (i + 0.5) / k_mid);
+      for (int i = 0; i < k_end; ++i)
+        t_list.push_back(L - margin - stretch + stretch * (i + 0.5) / k_end);
+    }
+    const int k_samples = static_cast<int>(t_list.size());
     pts.clear();
     w.clear();
     ts.clear();
     sign.clear();
     int pos = 0, neg = 0, on_path = 0;
     size_t piece = 0;
-    for (int k = 0; k < k_samples; ++k) {
-      const double t = margin + (L - 2 * margin) * (k + 0.5) / k_samples;
+    for (const double t : t_list) {
       while (piece + 2 < poly.size() && t > cum[piece + 1]) ++piece;
       const Vec2 ue = (poly[piece + 1] - poly[piece]).normalized(), n(-ue.y(), ue.x());
       const Vec2 p = poly[piece] + (t - cum[piece]) * ue;
@@ -667,7 +698,6 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
     std::vector<int> all, first, second;
     std::vector<double> grads;
     // Halves of a straight side; the end pieces of a curved one.
-    const double corner_stretch = margin + std::max(30.0, o.curved_corner_frac * L);
     const double first_end = curved ? std::min(cum[1], corner_stretch) : 0.5 * L;
     const double second_start =
         curved ? std::max(cum[cum.size() - 2], L - corner_stretch) : 0.5 * L;
@@ -1064,6 +1094,10 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   const double min_gradient = res.canny_low / 8.0;  // Sobel magnitude ≈ 8 x (grey levels per px)
   std::vector<Quad> refined;
   const EdgeProbe probe(smooth, cam, o);
+  auto LCornered = [&](const Quad& q) {
+    return !(o.max_side_continuation < 1.0 || o.min_corner_reach > 0.0) ||
+           !HasTJunction(probe, q.c_grouping, q.edges);
+  };
   for (Quad& q : quads) {
     const RectangleTest pre = ZhangHeTest(q.c, K);
     if (!pre.valid || pre.abs_cos > std::min(1.0, 2.0 * o.max_abs_cos)) continue;
@@ -1076,7 +1110,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   std::vector<Quad> good, cut_off;
   for (Quad& q : refined) {
     if (ShortestSide(q.c) < probe_side) continue;
-    const Corners grouping_order = q.c;  // the order of q.edges
+    q.c_grouping = q.c;
     q.c = CanonicalOrder(q.c, &K, gravity_C);
     const RectangleTest t = ZhangHeTest(q.c, K);
     if (!t.valid || t.abs_cos > o.max_abs_cos) continue;
@@ -1101,10 +1135,9 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       if (outside <= o.container_outside_frac * ShortestSide(q.c)) cut_off.push_back(q);
       continue;
     }
-    // Last (the costliest test): every corner is an L-corner.
-    if ((o.max_side_continuation < 1.0 || o.min_corner_reach > 0.0) &&
-        HasTJunction(probe, grouping_order, q.edges))
-      continue;
+    // The costliest test (every corner an L-corner) is left to the suppression stage, which runs
+    // it only on quads that would be kept or would replace a kept one; margin probes get it here.
+    if (ShortestSide(q.c) < min_side && !LCornered(q)) continue;
     good.push_back(q);
   }
   for (const Quad& q : good) res.verified_quads.emplace_back(q.c, q.score);
@@ -1120,6 +1153,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   std::vector<Quad> kept;
   for (const Quad& q : good) {
     bool drop = false;
+    Quad* replace = nullptr;  // the kept quad q would replace
     for (Quad& k : kept) {
       const double d = CornerDistanceBestShift(q.c, k.c);
       const double small_side = std::min(ShortestSide(q.c), ShortestSide(k.c));
@@ -1153,13 +1187,13 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
         // A plain bright ring between the outlines is a margin (a tag's white border): the inner
         // outline is the object, whichever scores higher.
         if (o.prefer_inner_of_bright_margin && IsBrightMargin(smooth, cam, outer.c, inner.c, o)) {
-          if (&inner == &q) k = q;
+          if (&inner == &q) replace = &k;
           drop = true;
           break;
         }
         // The new one is the outer outline: it replaces the kept inner one unless clearly worse
         // supported (a box's side face seen at an angle gives a weaker outer edge than its front).
-        if (&outer == &q && q.score >= k.score - o.nest_score_margin) k = q;
+        if (&outer == &q && q.score >= k.score - o.nest_score_margin) replace = &k;
         drop = true;
         break;
       }
@@ -1179,7 +1213,12 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
         break;
       }
     }
-    if (!drop) kept.push_back(q);
+    if (drop && !replace) continue;
+    if (!LCornered(q)) continue;  // as if it had never been found
+    if (replace)
+      *replace = q;
+    else
+      kept.push_back(q);
   }
   // Replacing may have created duplicates among kept ones; remove exact repeats. (A second pass
   // that drops every quad nested in a kept outer one was tried: on the rendered default room it

@@ -104,11 +104,15 @@ TEST(RealPhotos, SudokuOuterSquareCorners) {
   EXPECT_LT(CornerDistanceBestShift(def.detections[0].corners_px, kSudokuOuter), 7.0);
 }
 
-// building.jpg: a facade whose windows and panels line up in rows and columns. Their sides are
-// collinear across floors and bays, so the edge pieces merge into long lines that cross each other
-// instead of ending at corners, and the grouping (which takes L-junctions, not crossings, on
-// purpose: otherwise every cell combination of a grid is a rectangle) finds no quadrilateral.
-// Pinned at zero so a change in this behaviour is noticed; see the front end's notes.
+// building.jpg: a facade of white panels in rows and columns, separated by the shadow bands under
+// each floor and narrow vertical gaps. The panels' top and bottom edges are one continuous shadow
+// line along each floor (the gaps between panels do not interrupt it), so the collinear pieces
+// merge into long lines that cross the vertical edges instead of ending at corners: the grouping
+// takes L-junctions, not crossings, on purpose (otherwise every cell combination of a grid is a
+// rectangle), and a quad closed by such a line is also what the T-junction test rejects (its side
+// runs on past the corner). Keeping the runs between gaps of a merged line as segments of their
+// own was tried: 6 hypotheses, none an L-cornered rectangle. Pinned at zero so a change in this
+// behaviour is noticed.
 TEST(RealPhotos, BuildingFacadeGridFindsNothing) {
   FSP_REQUIRE_TEST_DATA(path, "opencv_samples/building.jpg");
   const auto res = RectDetector().Detect(ReadGray8(path));
