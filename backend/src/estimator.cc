@@ -50,7 +50,11 @@ double MsSince(Clock::time_point t0) {
 }
 
 struct Keyframe {
-  int index = 0;
+  int index = 0;  // position in Impl::keyframes
+  int frame = 0;  // position in Impl::output (the frame's reported state)
+  // False for a window-mode frame that is solved with the window and dropped when the next frame
+  // arrives (it is always the newest state).
+  bool keyframe = true;
   KeyframeState state;
   // Preintegrated IMU from the previous keyframe (null for the first keyframe).
   std::shared_ptr<ImuPreintegration> preint;
@@ -93,6 +97,9 @@ struct Estimator::Impl {
   std::vector<std::pair<int64_t, std::vector<ObjectObservation>>> pending;  // frames before init
   std::deque<std::unique_ptr<Keyframe>> keyframes;  // every keyframe (window = the last window_size)
   std::map<int, std::unique_ptr<Object>> objects;
+  // Window mode: the best-observed earlier instance of each re-initialised object (the map reports
+  // whichever instance of an id has more observations).
+  std::map<int, std::unique_ptr<Object>> retired;
   std::vector<StateSample> output;            // per keyframe, the state reported for it
   size_t window_begin = 0;                     // index of the oldest keyframe in the window
   Rigid3 T_W_B0;                               // gauge prior of the first keyframe
@@ -154,8 +161,11 @@ struct Estimator::Impl {
   // --- Keyframes ---------------------------------------------------------------------------------
   void AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs, const KeyframeState* initial) {
     const auto t_start = Clock::now();
+    if (!keyframes.empty() && !keyframes.back()->keyframe) DropNewest();
     auto kf = std::make_unique<Keyframe>();
     kf->index = static_cast<int>(keyframes.size());
+    kf->frame = static_cast<int>(output.size());
+    kf->keyframe = initial != nullptr || IsKeyframe(t_ns, obs);
     if (initial) {
       kf->state = *initial;
     } else {
@@ -175,7 +185,7 @@ struct Estimator::Impl {
     kf->observations = std::move(obs);
     keyframes.push_back(std::move(kf));
     output.push_back(keyframes.back()->state.ToStateSample());
-    ++summary.keyframes;
+    if (keyframes.back()->keyframe) ++summary.keyframes;
 
     InitializeNewObjects(keyframes.back().get());
     for (const ObjectObservation& o : keyframes.back()->observations) {
@@ -188,14 +198,48 @@ struct Estimator::Impl {
     }
     if (options.mode == EstimatorMode::kWindow) {
       SolveWindow(options.window_max_iterations);
-      while (static_cast<int>(keyframes.size() - window_begin) > options.window_size) MarginalizeOldest();
+      const auto in_window = [this] {
+        return static_cast<int>(keyframes.size() - window_begin) - (keyframes.back()->keyframe ? 0 : 1);
+      };
+      while (in_window() > options.window_size) MarginalizeOldest();
     } else if (keyframes.size() % static_cast<size_t>(options.batch_solve_every) == 0) {
       // Batch: the whole problem so far (window_begin stays 0), re-solved every few frames so the
-      // initial values of the final solve stay close to the optimum.
-      SolveWindow(options.window_max_iterations);
+      // initial values of the final solve stay close to the optimum. Each solve must converge: with a
+      // few iterations per solve (like the window's) the error left behind grew with every solve and
+      // the default scene diverged after ~20 s (ATE 39 m); solved to convergence (7-19 iterations
+      // each) ATE 0.42 cm.
+      SolveWindow(options.batch_max_iterations);
     }
     PruneImu();
     summary.backend_ms.push_back(MsSince(t_start));
+  }
+
+  // Window mode: whether a frame is kept as a keyframe. Kept: every keyframe_interval_s, and any frame
+  // that sees an object not in the map or back after leaving the window (it may become the object's
+  // anchor, and only keyframes can be anchors).
+  bool IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const {
+    if (options.mode == EstimatorMode::kBatch || options.keyframe_interval_s <= 0.0) return true;
+    const Keyframe& last = *keyframes.back();  // a keyframe: a non-keyframe newest was just dropped
+    if (static_cast<double>(t_ns - last.state.t_ns) >= options.keyframe_interval_s * 1e9 - 1e6) return true;
+    const int first_in_window = keyframes[window_begin]->index;
+    for (const ObjectObservation& o : obs) {
+      auto it = objects.find(o.object_id);
+      if (it == objects.end() || it->second->last_seen < first_in_window) return true;
+    }
+    return false;
+  }
+
+  // Removes the newest frame (not a keyframe) from the window: its pose was reported, its
+  // observations are forgotten, and the next frame's IMU factor starts at the last keyframe.
+  void DropNewest() {
+    const Keyframe& kf = *keyframes.back();
+    for (const ObjectObservation& o : kf.observations) {
+      auto it = objects.find(o.object_id);
+      if (it == objects.end()) continue;
+      --it->second->observations;
+      --summary.observations_used;
+    }
+    keyframes.pop_back();
   }
 
   void PruneImu() {
@@ -225,6 +269,8 @@ struct Estimator::Impl {
       auto found = objects.find(o.object_id);
       if (found != objects.end() && options.mode == EstimatorMode::kWindow &&
           found->second->last_seen < first_in_window && !ConsistentWithMap(*found->second, T_W_C, o.corners)) {
+        std::unique_ptr<Object>& best = retired[o.object_id];
+        if (!best || best->observations < found->second->observations) best = std::move(found->second);
         objects.erase(found);
         found = objects.end();
         ++summary.objects_reinitialized;
@@ -398,7 +444,7 @@ struct Estimator::Impl {
     ceres::Solver::Summary s;
     ceres::Solve(SolverOptions(max_iterations), &problem, &s);
     summary.final_cost = s.final_cost;
-    for (size_t i = window_begin; i < n; ++i) output[keyframes[i]->index] = keyframes[i]->state.ToStateSample();
+    for (size_t i = window_begin; i < n; ++i) output[keyframes[i]->frame] = keyframes[i]->state.ToStateSample();
     if (finish) {
       ComputeSigmas(&problem);
     } else {
@@ -427,6 +473,7 @@ struct Estimator::Impl {
       const Rigid3 T_W_F = CameraPose(*old);
       for (size_t i = n; i-- > window_begin + 1;) {
         Keyframe* cand = keyframes[i].get();
+        if (!cand->keyframe) continue;
         const Rigid3 T_W_Fnew = CameraPose(*cand);
         FspLandmark fsp_new;
         FhpLandmark fhp_new;
@@ -490,7 +537,7 @@ struct Estimator::Impl {
       past.push_back({old, o.corners});
       if (static_cast<int>(past.size()) > options.max_past_views) past.pop_front();
     }
-    output[old->index] = old->state.ToStateSample();
+    output[old->frame] = old->state.ToStateSample();
     ++window_begin;
     ++summary.marginalizations;
   }
@@ -521,12 +568,12 @@ struct Estimator::Impl {
     ceres::Solve(so, &problem, &s);
     summary.final_cost = s.final_cost;
     summary.batch_solve_ms = MsSince(t0);
-    for (auto& kf : keyframes) output[kf->index] = kf->state.ToStateSample();
+    for (auto& kf : keyframes) output[kf->frame] = kf->state.ToStateSample();
     ComputeSigmas(&problem);
   }
 
   // --- Map covariance -----------------------------------------------------------------------------
-  std::map<int, std::pair<double, double>> sigmas;  // id -> (σ_w, σ_h)
+  std::map<const Object*, std::pair<double, double>> sigmas;  // (σ_w, σ_h)
 
   void ComputeSigmas(ceres::Problem* problem) {
     sigmas.clear();
@@ -552,7 +599,7 @@ struct Estimator::Impl {
       jh[kFspLogForm] = -1.0;
       const double sw = obj->fsp.Width() * std::sqrt(std::max(0.0, (jw * C * jw.transpose())(0)));
       const double sh = obj->fsp.Height() * std::sqrt(std::max(0.0, (jh * C * jh.transpose())(0)));
-      sigmas[id] = {sw, sh};
+      sigmas[obj.get()] = {sw, sh};
     }
   }
 
@@ -618,16 +665,20 @@ std::vector<StampedPose> Estimator::Trajectory() const {
 
 std::vector<MapObject> Estimator::Map() const {
   const Impl& d = *impl_;
+  // Per id the current instance, or a retired one (window re-initialisation) seen more often.
+  std::map<int, const Object*> best;
+  for (const auto* instances : {&d.objects, &d.retired})
+    for (const auto& [id, obj] : *instances) {
+      const Object*& b = best[id];
+      if (!b || b->observations < obj->observations) b = obj.get();
+    }
   std::vector<MapObject> map;
-  for (const auto& [id, obj] : d.objects) {
-    int n = 0;
-    for (const auto& kf : d.keyframes)
-      for (const auto& o : kf->observations) n += o.object_id == id ? 1 : 0;
-    if (n < d.options.min_observations) continue;
+  for (const auto& [id, obj] : best) {
+    if (obj->observations < d.options.min_observations) continue;
     MapObject m;
     m.id = id;
     m.object_class = obj->object_class;
-    m.observations = n;
+    m.observations = obj->observations;
     const Rigid3 T_W_F = d.CameraPose(*obj->anchor);
     if (d.options.landmarks == LandmarkType::kFsp) {
       m.corners_W = obj->fsp.CornersW(T_W_F);
@@ -640,7 +691,7 @@ std::vector<MapObject> Estimator::Map() const {
       m.height = obj->fhp.Height();
       m.T_W_O = obj->fhp.T_W_O(T_W_F);
     }
-    auto it = d.sigmas.find(id);
+    auto it = d.sigmas.find(obj);
     m.width_sigma = it == d.sigmas.end() ? -1.0 : it->second.first;
     m.height_sigma = it == d.sigmas.end() ? -1.0 : it->second.second;
     map.push_back(m);
