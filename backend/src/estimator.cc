@@ -298,8 +298,9 @@ struct Estimator::Impl {
   // Whether an observation from camera pose T_W_C agrees with the object's estimate: in front and the
   // RMS corner error (pixels) within options.reinit_gate_px.
   bool ConsistentWithMap(const Object& obj, const Rigid3& T_W_C, const Corners& corners) const {
-    if (options.landmarks != LandmarkType::kFsp) return true;
-    const CornerPrediction p = PredictFspCorners(K, T_W_C, CameraPose(*obj.anchor), obj.fsp);
+    const Rigid3 T_W_F = CameraPose(*obj.anchor);
+    const CornerPrediction p = options.landmarks == LandmarkType::kFsp ? PredictFspCorners(K, T_W_C, T_W_F, obj.fsp)
+                                                                       : PredictFhpCorners(K, T_W_C, T_W_F, obj.fhp);
     if (!p.in_front) return false;
     double sum2 = 0.0;
     for (int j = 0; j < 4; ++j) sum2 += (p.uv[j] - corners[j]).squaredNorm();
@@ -577,30 +578,61 @@ struct Estimator::Impl {
 
   void ComputeSigmas(ceres::Problem* problem) {
     sigmas.clear();
-    if (options.landmarks != LandmarkType::kFsp) return;
+    const bool fsp = options.landmarks == LandmarkType::kFsp;
     ceres::Covariance::Options co;
     co.algorithm_type = ceres::SPARSE_QR;
     co.num_threads = 1;
     ceres::Covariance covariance(co);
     std::vector<std::pair<const double*, const double*>> blocks;
-    for (auto& [id, obj] : objects)
-      if (problem->HasParameterBlock(obj->fsp.x)) blocks.emplace_back(obj->fsp.x, obj->fsp.x);
-    if (blocks.empty() || !covariance.Compute(blocks, problem)) return;
+    std::vector<Object*> in_problem;
     for (auto& [id, obj] : objects) {
-      if (!problem->HasParameterBlock(obj->fsp.x)) continue;
-      double c[25];
-      covariance.GetCovarianceBlock(obj->fsp.x, obj->fsp.x, c);
-      Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
-      // log w = log w̄ − log ω;  log h = log w̄ − log f − log ω;  σ_w = w σ_log w.
-      Eigen::Matrix<double, 1, 5> jw = Eigen::Matrix<double, 1, 5>::Zero(), jh = jw;
-      jw[kFspLogWbar] = 1.0;
-      jw[kFspLogOmega] = -1.0;
-      jh = jw;
-      jh[kFspLogForm] = -1.0;
-      const double sw = obj->fsp.Width() * std::sqrt(std::max(0.0, (jw * C * jw.transpose())(0)));
-      const double sh = obj->fsp.Height() * std::sqrt(std::max(0.0, (jh * C * jh.transpose())(0)));
-      sigmas[obj.get()] = {sw, sh};
+      if (!problem->HasParameterBlock(fsp ? obj->fsp.x : obj->fhp.corner[0])) continue;
+      in_problem.push_back(obj.get());
+      if (fsp) blocks.emplace_back(obj->fsp.x, obj->fsp.x);
+      for (int a = 0; !fsp && a < 4; ++a)
+        for (int b = a; b < 4; ++b) blocks.emplace_back(obj->fhp.corner[a], obj->fhp.corner[b]);
     }
+    if (blocks.empty() || !covariance.Compute(blocks, problem)) return;
+    for (Object* obj : in_problem) sigmas[obj] = fsp ? FspSigmas(covariance, obj->fsp) : FhpSigmas(covariance, obj->fhp);
+  }
+
+  static std::pair<double, double> FspSigmas(const ceres::Covariance& covariance, const FspLandmark& l) {
+    double c[25];
+    covariance.GetCovarianceBlock(l.x, l.x, c);
+    Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
+    // log w = log w̄ − log ω;  log h = log w̄ − log f − log ω;  σ_w = w σ_log w.
+    Eigen::Matrix<double, 1, 5> jw = Eigen::Matrix<double, 1, 5>::Zero(), jh = jw;
+    jw[kFspLogWbar] = 1.0;
+    jw[kFspLogOmega] = -1.0;
+    jh = jw;
+    jh[kFspLogForm] = -1.0;
+    return {l.Width() * std::sqrt(std::max(0.0, (jw * C * jw.transpose())(0))),
+            l.Height() * std::sqrt(std::max(0.0, (jh * C * jh.transpose())(0)))};
+  }
+
+  // FHP: w and h are functions of the 12 corner parameters (all in the anchor frame, so the anchor
+  // pose does not enter): σ² = J C Jᵀ with C the joint 12 x 12 covariance and J by central differences.
+  static std::pair<double, double> FhpSigmas(const ceres::Covariance& covariance, const FhpLandmark& l) {
+    Eigen::Matrix<double, 12, 12> C;
+    for (int a = 0; a < 4; ++a)
+      for (int b = a; b < 4; ++b) {
+        double c[9];
+        covariance.GetCovarianceBlock(l.corner[a], l.corner[b], c);
+        const Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Cab(c);
+        C.block<3, 3>(3 * a, 3 * b) = Cab;
+        C.block<3, 3>(3 * b, 3 * a) = Cab.transpose();
+      }
+    Eigen::Matrix<double, 2, 12> J;
+    constexpr double kStep = 1e-6;
+    for (int k = 0; k < 12; ++k) {
+      FhpLandmark plus = l, minus = l;
+      plus.corner[k / 3][k % 3] += kStep;
+      minus.corner[k / 3][k % 3] -= kStep;
+      J(0, k) = (plus.Width() - minus.Width()) / (2.0 * kStep);
+      J(1, k) = (plus.Height() - minus.Height()) / (2.0 * kStep);
+    }
+    const Eigen::Matrix2d S = J * C * J.transpose();
+    return {std::sqrt(std::max(0.0, S(0, 0))), std::sqrt(std::max(0.0, S(1, 1)))};
   }
 
   void FinishWindow() {

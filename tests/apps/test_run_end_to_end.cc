@@ -132,7 +132,7 @@ TEST(RunEndToEnd, WindowModeWithOnePixelNoise) {
 
 // Batch mode with 1 px noise, FSP and the FHP baseline. Measured (seed 1): FSP ATE 2.7 cm, width error
 // mean 0.60 cm (max 1.5), height 0.54 cm (max 1.4), corner mean 3.5 cm; FHP ATE 3.5 cm, width 1.1 cm
-// (max 3.2), corner mean 5.0 cm. Before every periodic batch solve was run to convergence (6 iterations
+// (max 3.2), corner mean 5.0 cm; width sigma 0.2-7.3 cm for both. Before every periodic batch solve was run to convergence (6 iterations
 // each) the default scene diverged (ATE 39 m).
 TEST(RunEndToEnd, BatchModeWithOnePixelNoiseFspAndFhp) {
   const fs::path dir = test::ScratchDir();
@@ -153,6 +153,19 @@ TEST(RunEndToEnd, BatchModeWithOnePixelNoiseFspAndFhp) {
   EXPECT_LT(h.metrics.trajectory->ate.rmse, 0.05);
   EXPECT_LT(h.metrics.objects->width_err.mean, 0.016);
   EXPECT_LT(h.metrics.objects->corner_err.mean, 0.07);
+  // Both report width/height sigma from the covariance (FHP: propagated from its 12 corner parameters).
+  for (const char* run : {"fsp", "fhp"}) {
+    std::ifstream in(dir / run / "map.json");
+    nlohmann::json map;
+    in >> map;
+    ASSERT_FALSE(map["objects"].empty()) << run;
+    for (const auto& o : map["objects"]) {
+      ASSERT_TRUE(o["width_sigma"].is_number()) << run << " object " << o["id"];
+      EXPECT_GT(o["width_sigma"].get<double>(), 0.0) << run;
+      EXPECT_LT(o["width_sigma"].get<double>(), 0.15) << run;  // measured 0.002-0.073 m
+      EXPECT_GT(o["height_sigma"].get<double>(), 0.0) << run;
+    }
+  }
 }
 
 // Noise-free corners: what remains is the IMU noise (scale, drift) over 10 s. Measured (cd44a67):
