@@ -894,6 +894,39 @@ void QuadStats(const cv::Mat& img, const Corners& px, double scale, double* mean
   *stddev = std::sqrt(std::max(0.0, s2 / n - *mean * *mean));
 }
 
+// Mean and standard deviation of the grey values along the outline of the quad scaled by `scale`
+// about its centre (< 1: a ring inside it, > 1: outside), 8 points per side; optionally the
+// largest of the four sides' means.
+void RingStats(const cv::Mat& img, const Corners& px, double scale, double* mean, double* stddev,
+               double* max_side_mean = nullptr) {
+  const Vec2 centre = 0.25 * (px[0] + px[1] + px[2] + px[3]);
+  double s = 0.0, s2 = 0.0;
+  int n = 0;
+  if (max_side_mean) *max_side_mean = -1.0;
+  for (int i = 0; i < 4; ++i) {
+    double side_sum = 0.0;
+    int side_n = 0;
+    for (int k = 0; k < 8; ++k) {
+      const Vec2 p = px[i] + ((k + 0.5) / 8.0) * (px[(i + 1) % 4] - px[i]);
+      const Vec2 ps = centre + scale * (p - centre);
+      double v;
+      if (!Bilinear(img, ps.x(), ps.y(), &v)) continue;
+      s += v;
+      s2 += v * v;
+      ++n;
+      side_sum += v;
+      ++side_n;
+    }
+    if (max_side_mean && side_n > 0) *max_side_mean = std::max(*max_side_mean, side_sum / side_n);
+  }
+  if (n == 0) {
+    *mean = *stddev = -1.0;
+    return;
+  }
+  *mean = s / n;
+  *stddev = std::sqrt(std::max(0.0, s2 / n - *mean * *mean));
+}
+
 // Bright margin test (RectDetectorOptions::prefer_inner_of_bright_margin) for an outer quad and a
 // nested inner one (undistorted px, any start corner, same orientation). Per side, at points p
 // along the inner side (t in [0.15, 0.85], away from the corners), the ring's width h is the
@@ -1311,11 +1344,30 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       //    (a white calibration board on a dark background is therefore called a window);
       //  - cabinet is never guessed from one image (a cabinet front looks like a wall panel);
       //  - otherwise unknown.
-      if (h_over_w >= 1.7 && h_over_w <= 3.2 && in_std < 40.0) {
+      //  - tag (a fiducial without its id: use the AprilTag front end for ids): square-ish, a
+      //    plain dark ring just inside the outline (the black border, 1/8 of the side: sampled at
+      //    scale 0.875) inside a plain bright ring just outside it (the white margin, scale
+      //    1.125), > 60 grey levels apart, and a patterned interior;
+      //  - window: brighter than its surroundings (> 30 grey levels) with a frame: the ring just
+      //    inside the outline (scale 0.95) darker than the interior on every side;
+      //  - a bright interior without such a frame is a poster (a print on the wall).
+      double ring_in, ring_in_std, ring_out, ring_out_std, frame, frame_std, frame_max;
+      RingStats(smooth, det.corners_px, 0.875, &ring_in, &ring_in_std);
+      RingStats(smooth, det.corners_px, 1.125, &ring_out, &ring_out_std);
+      RingStats(smooth, det.corners_px, 0.95, &frame, &frame_std, &frame_max);
+      const double tag_contrast = ring_out - ring_in;
+      const bool tag_like = ring_in >= 0.0 && ring_out >= 0.0 && tag_contrast > 60.0 &&
+                            ring_in_std < 0.25 * tag_contrast &&
+                            ring_out_std < 0.25 * tag_contrast && in_std > 30.0 &&
+                            h_over_w >= 0.67 && h_over_w <= 1.5;
+      if (tag_like) {
+        det.object_class = ObjectClass::kTag;
+      } else if (h_over_w >= 1.7 && h_over_w <= 3.2 && in_std < 40.0) {
         det.object_class = ObjectClass::kDoor;
       } else if (out_mean >= 0.0 && in_mean - out_mean > 30.0 && h_over_w >= 0.4 &&
                  h_over_w <= 2.5) {
-        det.object_class = ObjectClass::kWindow;
+        det.object_class = frame >= 0.0 && frame_max < in_mean - 20.0 ? ObjectClass::kWindow
+                                                                     : ObjectClass::kPoster;
       } else if (in_std > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) {
         det.object_class = ObjectClass::kPoster;
       }

@@ -41,7 +41,9 @@ TEST(RealPhotos, EurocCalibrationBoard) {
                          Vec2(334.16, 243.48)};
   const Detection& best = res.detections[0];  // best score first
   ExpectCornersNear(best.corners_px, board, 1.0);
-  // (Its class guess is "window": white and much brighter than the mattress; see the README.)
+  // Class guess "poster": brighter than the mattress around it, with a white border (no dark
+  // frame just inside its outline, as a window has).
+  EXPECT_EQ(best.object_class, ObjectClass::kPoster);
   // The undistorted corners are the same points through the lens model.
   for (int i = 0; i < 4; ++i)
     EXPECT_LT(

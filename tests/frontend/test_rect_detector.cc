@@ -286,7 +286,14 @@ TEST(RectDetector, BrightMarginReportsTheTagsDarkSquareNotTheMargin) {
   EXPECT_LT(best(on, frame.corners), 0.5);
   EXPECT_GT(best(on, pane.corners), 3.0);
   EXPECT_GT(best(on, small_margin.corners), 3.0);
-  EXPECT_EQ(on.size(), 2u);
+  ASSERT_EQ(on.size(), 2u);
+  // Class guesses: the dark square with a plain dark border ring inside a plain bright margin and a
+  // patterned interior is a tag; the bright pane in a dark frame is a window.
+  for (const Detection& d : on) {
+    const bool is_tag = CornerDistanceBestShift(d.corners_px, black.corners) < 0.5;
+    EXPECT_EQ(d.object_class, is_tag ? ObjectClass::kTag : ObjectClass::kWindow)
+        << ToString(d.object_class);
+  }
   RectDetector::Options off;
   off.prefer_inner_of_bright_margin = false;
   const auto without = RectDetector(off).Detect(img).detections;
