@@ -304,10 +304,11 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
 // Slowly bending edges (curled paper, a page's edge near the binding): straight pieces where the end
 // of one touches the start of the next (within `touch_px`), with the same polarity and directions
 // within `step_deg`, are chained; a chain of at least two pieces whose first and last directions
-// differ by at most `total_deg` becomes one curved segment (the chord, with the pieces' polyline).
+// differ by at most `total_deg` and whose chord is at least `min_len` long becomes one curved
+// segment (the chord, with the pieces' polyline).
 // The pieces stay segments of their own.
 std::vector<Seg> CurvedChains(const std::vector<Seg>& segs, double touch_px, double step_deg,
-                              double total_deg) {
+                              double total_deg, double min_len) {
   const int n = static_cast<int>(segs.size());
   const double cos_step = std::cos(step_deg * M_PI / 180.0);
   const double cos_total = std::cos(total_deg * M_PI / 180.0);
@@ -346,6 +347,7 @@ std::vector<Seg> CurvedChains(const std::vector<Seg>& segs, double touch_px, dou
     }
     if (chain.size() < 2) continue;
     Seg c = MakeSeg(segs[chain.front()].a, segs[chain.back()].b);
+    if (c.len < min_len) continue;
     c.path.push_back(segs[chain.front()].a);
     for (size_t k = 0; k + 1 < chain.size(); ++k)
       c.path.push_back(0.5 * (segs[chain[k]].b + segs[chain[k + 1]].a));
@@ -622,6 +624,7 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
   double support_sum = 0.0;
   std::vector<Vec2> pts, poly;
   std::vector<double> w, ts, cum, t_list;
+  std::vector<int> first_inl, second_inl;
   std::vector<int> sign;
   for (int side = 0; side < 4; ++side) {
     const Vec2 P = q->c[(side + 3) % 4], Q = q->c[side];
@@ -733,17 +736,37 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
     Line global;
     const int n_global =
         RansacLine(pts, w, all, o.ransac_inlier_px, o.ransac_iterations, rng, &global);
-    Line l1, l2;
-    const int n1 = RansacLine(pts, w, first, o.ransac_inlier_px, o.ransac_iterations, rng, &l1);
-    const int n2 = RansacLine(pts, w, second, o.ransac_inlier_px, o.ransac_iterations, rng, &l2);
     // Disagreement of a half-line with the global line at the corner it serves.
     auto bend_at = [&](const Line& half, const Vec2& corner) {
       const Vec2 on_half =
           corner - half.Dist(corner) * half.n;  // foot of the corner on the half-line
       return std::abs(global.Dist(on_half));
     };
+    // Cheap check first: lines through the global line's inliers in each half. Only when they
+    // disagree with it (or too few points are inliers) are the halves fitted on their own (RANSAC).
+    Line l1, l2;
+    int n1 = 0, n2 = 0;
+    bool maybe_bent = n_global < static_cast<int>(0.9 * all.size());
+    if (!maybe_bent) {
+      std::vector<int>& in1 = first_inl;
+      std::vector<int>& in2 = second_inl;
+      in1.clear();
+      in2.clear();
+      for (int i : first)
+        if (std::abs(global.Dist(pts[i])) <= o.ransac_inlier_px) in1.push_back(i);
+      for (int i : second)
+        if (std::abs(global.Dist(pts[i])) <= o.ransac_inlier_px) in2.push_back(i);
+      maybe_bent = in1.size() >= 2 && in2.size() >= 2 && FitLineTls(pts, w, in1, &l1) &&
+                   FitLineTls(pts, w, in2, &l2) &&
+                   (bend_at(l1, P) > 0.5 * o.bend_px || bend_at(l2, Q) > 0.5 * o.bend_px);
+    }
+    if (maybe_bent) {
+      n1 = RansacLine(pts, w, first, o.ransac_inlier_px, o.ransac_iterations, rng, &l1);
+      n2 = RansacLine(pts, w, second, o.ransac_inlier_px, o.ransac_iterations, rng, &l2);
+    }
     const bool halves_ok = n1 >= std::max(2, need / 2) && n2 >= std::max(2, need / 2);
-    const bool bent = halves_ok && (bend_at(l1, P) > o.bend_px || bend_at(l2, Q) > o.bend_px);
+    const bool bent = maybe_bent && halves_ok &&
+                      (bend_at(l1, P) > o.bend_px || bend_at(l2, Q) > o.bend_px);
     if (!bent) {
       if (n_global < need) return false;
       start_line[side] = end_line[side] = global;
@@ -1046,7 +1069,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       std::remove_if(segs.begin(), segs.end(), [&](const Seg& sg) { return sg.len < min_seg; }),
       segs.end());
   if (o.curved_step_deg > 0.0)
-    for (Seg& c : CurvedChains(segs, o.merge_line_px, o.curved_step_deg, o.curved_total_deg))
+    for (Seg& c : CurvedChains(segs, o.merge_line_px, o.curved_step_deg, o.curved_total_deg,
+                               o.curved_min_frac * diag))
       segs.push_back(std::move(c));
   res.segments = static_cast<int>(segs.size());
   for (const Seg& sg : segs) res.segment_ends.emplace_back(sg.a, sg.b);
@@ -1134,6 +1158,21 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   for (Quad& q : quads) {
     const RectangleTest pre = ZhangHeTest(q.c, K);
     if (!pre.valid || pre.abs_cos > std::min(1.0, 2.0 * o.max_abs_cos)) continue;
+    // A corner so far out of view that refinement (which moves corners by at most 0.2 x the
+    // shortest side + 2 search_px) cannot bring it within the cut-off container limit: neither a
+    // detection nor a container.
+    {
+      const double side = ShortestSide(q.c);
+      const double reach_out = (std::max(o.container_outside_frac, 0.0) + 0.2) * side +
+                               2.0 * o.search_px + o.max_corner_outside_px;
+      double outside = 0.0;
+      for (const Vec2& c : q.c) {
+        const Vec2 d = cam ? cam->DistortPixel(c) : c;
+        outside =
+            std::max({outside, -d.x(), -d.y(), d.x() - (gray.cols - 1), d.y() - (gray.rows - 1)});
+      }
+      if (outside > reach_out) continue;
+    }
     if (RefineQuad(probe, segs, min_gradient, &rng, &q, &q.edges)) refined.push_back(q);
   }
   res.refined = static_cast<int>(refined.size());

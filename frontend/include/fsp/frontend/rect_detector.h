@@ -92,6 +92,9 @@ struct RectDetectorOptions {
   // lines fitted to its end pieces. 0 switches this off.
   double curved_step_deg = 6.0;
   double curved_total_deg = 15.0;
+  // Shortest curved segment [fraction of the image diagonal]: short chains bend too little to
+  // matter, and each one costs grouping and refinement time.
+  double curved_min_frac = 0.15;
   // Stretch of a curved side next to each corner that the corner's line is fitted to [fraction of
   // the side's length, at least 30 px].
   double curved_corner_frac = 0.1;
