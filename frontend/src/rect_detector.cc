@@ -1208,8 +1208,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       continue;
     }
     // The costliest test (every corner an L-corner) is left to the suppression stage, which runs
-    // it only on quads that would be kept or would replace a kept one; margin probes get it here.
-    if (ShortestSide(q.c) < min_side && !LCornered(q)) continue;
+    // it only on quads that would be kept or would replace a kept one, and on margin probes only
+    // when one would mark a margin.
     good.push_back(q);
   }
   for (const Quad& q : good) res.verified_quads.emplace_back(q.c, q.score);
@@ -1313,7 +1313,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
         }
         bool inside = true;
         for (const Vec2& c : p.c) inside = inside && InsideConvex(grown, c);
-        margin = inside && IsBrightMargin(smooth, cam, k.c, p.c, o);
+        margin = inside && IsBrightMargin(smooth, cam, k.c, p.c, o) && LCornered(p);
       }
       if (!margin) not_margin.push_back(k);
     }
