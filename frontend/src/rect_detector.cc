@@ -301,12 +301,11 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
   return out;
 }
 
-// Slowly bending edges (curled paper, a page's edge near the binding): straight pieces where the end
-// of one touches the start of the next (within `touch_px`), with the same polarity and directions
-// within `step_deg`, are chained; a chain of at least two pieces whose first and last directions
-// differ by at most `total_deg` and whose chord is at least `min_len` long becomes one curved
-// segment (the chord, with the pieces' polyline).
-// The pieces stay segments of their own.
+// Slowly bending edges (curled paper, a page's edge near the binding): straight pieces where the
+// end of one touches the start of the next (within `touch_px`), with the same polarity and
+// directions within `step_deg`, are chained; a chain of at least two pieces whose first and last
+// directions differ by at most `total_deg` and whose chord is at least `min_len` long becomes one
+// curved segment (the chord, with the pieces' polyline). The pieces stay segments of their own.
 std::vector<Seg> CurvedChains(const std::vector<Seg>& segs, double touch_px, double step_deg,
                               double total_deg, double min_len) {
   const int n = static_cast<int>(segs.size());
@@ -316,7 +315,8 @@ std::vector<Seg> CurvedChains(const std::vector<Seg>& segs, double touch_px, dou
   // Candidates j for "i's end b touches j's start a", found by start x (sorted).
   std::vector<int> by_ax(n);
   std::iota(by_ax.begin(), by_ax.end(), 0);
-  std::sort(by_ax.begin(), by_ax.end(), [&](int x, int y) { return segs[x].a.x() < segs[y].a.x(); });
+  std::sort(by_ax.begin(), by_ax.end(),
+            [&](int x, int y) { return segs[x].a.x() < segs[y].a.x(); });
   std::vector<double> ax(n);
   for (int k = 0; k < n; ++k) ax[k] = segs[by_ax[k]].a.x();
   for (int i = 0; i < n; ++i) {
@@ -500,7 +500,8 @@ struct SideEdge {
 
 struct Quad {
   Corners c;  // undistorted px, grouping order (a∩b, b∩c, c∩d, d∩a)
-  std::array<SideEdge, 4> edges;  // side i joins c[i-1] and c[i] (grouping order, set by refinement)
+  std::array<SideEdge, 4>
+      edges;  // side i joins c[i-1] and c[i] (grouping order, set by refinement)
   std::array<int, 4> seg = {-1, -1, -1, -1};  // segment of side i (grouping)
   Corners c_grouping;  // refined corners in grouping order (the order of `edges`)
   double score = 0.0;
@@ -550,9 +551,10 @@ int RansacLine(const std::vector<Vec2>& pts, const std::vector<double>& w,
 }
 
 // One sub-pixel edge point: the 1-D gradient peak on the (smoothed, distorted) image along the
-// normal `n` through `p` (undistorted px), within +-search_px. Returns false when the peak is at the
-// window's end (no edge inside), below `min_gradient` [grey levels / px] or the profile leaves the
-// image. With `want_sign` != 0 only edges of that polarity are considered (a groove's two edges). `edge` (undistorted px), `gradient` [grey levels / px] and `sign` (+1: brighter towards
+// normal `n` through `p` (undistorted px), within +-search_px. Returns false when the peak is at
+// the window's end (no edge inside), below `min_gradient` [grey levels / px] or the profile leaves
+// the image. With `want_sign` != 0 only edges of that polarity are considered (a groove's two
+// edges). `edge` (undistorted px), `gradient` [grey levels / px] and `sign` (+1: brighter towards
 // +n) describe the peak.
 struct EdgeProbe {
   const cv::Mat& smooth;
@@ -642,7 +644,8 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
       poly.push_back(Q);
     }
     cum.assign(1, 0.0);
-    for (size_t k = 1; k < poly.size(); ++k) cum.push_back(cum.back() + (poly[k] - poly[k - 1]).norm());
+    for (size_t k = 1; k < poly.size(); ++k)
+      cum.push_back(cum.back() + (poly[k] - poly[k - 1]).norm());
     const double L = cum.back();
     if (!(L > 1.0)) return false;
     const Vec2 u = (Q - P).normalized();
@@ -669,8 +672,7 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
       for (int i = 0; i < k_end; ++i) t_list.push_back(margin + stretch * (i + 0.5) / k_end);
       const double mid = L - 2 * (margin + stretch);
       const int k_mid = mid > 0.0 ? o.samples_per_side / 2 : 0;
-      for (int i = 0; i < k_mid; ++i)
-        t_list.push_back(margin + stretch + mid * (i + 0.5) / k_mid);
+      for (int i = 0; i < k_mid; ++i) t_list.push_back(margin + stretch + mid * (i + 0.5) / k_mid);
       for (int i = 0; i < k_end; ++i)
         t_list.push_back(L - margin - stretch + stretch * (i + 0.5) / k_end);
     }
@@ -765,8 +767,8 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
       n2 = RansacLine(pts, w, second, o.ransac_inlier_px, o.ransac_iterations, rng, &l2);
     }
     const bool halves_ok = n1 >= std::max(2, need / 2) && n2 >= std::max(2, need / 2);
-    const bool bent = maybe_bent && halves_ok &&
-                      (bend_at(l1, P) > o.bend_px || bend_at(l2, Q) > o.bend_px);
+    const bool bent =
+        maybe_bent && halves_ok && (bend_at(l1, P) > o.bend_px || bend_at(l2, Q) > o.bend_px);
     if (!bent) {
       if (n_global < need) return false;
       start_line[side] = end_line[side] = global;
@@ -1197,13 +1199,14 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     double outside = 0.0;  // farthest distance of a corner outside the image [px, distorted]
     for (const Vec2& c : q.c) {
       const Vec2 d = cam ? cam->DistortPixel(c) : c;
-      outside = std::max({outside, -d.x(), -d.y(), d.x() - (gray.cols - 1), d.y() - (gray.rows - 1)});
+      outside =
+          std::max({outside, -d.x(), -d.y(), d.x() - (gray.cols - 1), d.y() - (gray.rows - 1)});
     }
     in_view = outside <= o.max_corner_outside_px;
     if (!in_view) {
       // A rectangle cut off by the image border by a little (a door whose bottom corners are just
-      // out of view) is not reported, but what lies inside it (the door leaf, its panels) is part of
-      // it: kept to suppress those.
+      // out of view) is not reported, but what lies inside it (the door leaf, its panels) is part
+      // of it: kept to suppress those.
       if (outside <= o.container_outside_frac * ShortestSide(q.c)) cut_off.push_back(q);
       continue;
     }
@@ -1353,8 +1356,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
         }
         bool inside = true;
         for (const Vec2& p : q.c) inside = inside && InsideConvex(grown, p);
-        contained = inside && !(o.prefer_inner_of_bright_margin &&
-                                IsBrightMargin(smooth, cam, u.c, q.c, o));
+        contained = inside &&
+                    !(o.prefer_inner_of_bright_margin && IsBrightMargin(smooth, cam, u.c, q.c, o));
       }
       if (!contained) outer_only.push_back(q);
     }
@@ -1406,7 +1409,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       } else if (out_mean >= 0.0 && in_mean - out_mean > 30.0 && h_over_w >= 0.4 &&
                  h_over_w <= 2.5) {
         det.object_class = frame >= 0.0 && frame_max < in_mean - 20.0 ? ObjectClass::kWindow
-                                                                     : ObjectClass::kPoster;
+                                                                      : ObjectClass::kPoster;
       } else if (in_std > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) {
         det.object_class = ObjectClass::kPoster;
       }

@@ -20,11 +20,12 @@
 namespace fsp::frontend {
 
 struct Detection {
-  int tag_id = -1;                                   // AprilTag id; -1 for a plain rectangle
-  ObjectClass object_class = ObjectClass::kUnknown;  // class guess (kTag for AprilTags)
-  Corners corners_px;                                // s1..s4, DISTORTED image pixels
-  Corners corners_undistorted;                       // s1..s4, undistorted pixels
-  double score = 0.0;  // confidence in [0, 1] (edge support, decode margin)
+  int tag_id = -1;  // AprilTag id; -1 for a plain rectangle
+  // Class guess: kTag for AprilTags and for tag-like rectangles (then tag_id -1).
+  ObjectClass object_class = ObjectClass::kUnknown;
+  Corners corners_px;           // s1..s4, DISTORTED image pixels
+  Corners corners_undistorted;  // s1..s4, undistorted pixels
+  double score = 0.0;           // confidence in [0, 1] (edge support, decode margin)
 
   // The back end's type: undistorted corners; object_id = tag_id (-1 until association assigns
   // one).
