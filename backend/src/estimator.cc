@@ -307,6 +307,18 @@ struct Estimator::Impl {
     return std::sqrt(sum2 / 4.0) <= options.reinit_gate_px;
   }
 
+  // Whether the object's depth sits on the box [min_depth_m, max_depth_m] (an FHP corner's, any): the
+  // views never constrained it (no parallax; a wrong single-view start), so its size and place are
+  // not estimates; the map leaves it out.
+  bool AtDepthBound(const Object& obj) const {
+    const double lo = -std::log(options.max_depth_m), hi = -std::log(options.min_depth_m);
+    const auto at = [&](double log_omega) { return log_omega <= lo + 1e-6 || log_omega >= hi - 1e-6; };
+    if (options.landmarks == LandmarkType::kFsp) return at(obj.fsp.x[kFspLogOmega]);
+    for (const auto& c : obj.fhp.corner)
+      if (at(c[2])) return true;
+    return false;
+  }
+
   // --- Problem construction -----------------------------------------------------------------------
   // Adds the factor(s) of one observation of `obj` from keyframe `kf`. Poses of keyframes that are not
   // variables of this problem (`is_variable` false: they left the window) enter as constants.
@@ -593,7 +605,17 @@ struct Estimator::Impl {
         for (int b = a; b < 4; ++b) blocks.emplace_back(obj->fhp.corner[a], obj->fhp.corner[b]);
     }
     if (blocks.empty() || !covariance.Compute(blocks, problem)) return;
-    for (Object* obj : in_problem) sigmas[obj] = fsp ? FspSigmas(covariance, obj->fsp) : FhpSigmas(covariance, obj->fhp);
+    // ceres::Covariance orders its columns by parameter block address, so the last bits of a σ depend
+    // on heap layout; 9 significant digits keep the output deterministic and lose nothing.
+    const auto round9 = [](double v) {
+      if (!(v > 0.0)) return v;
+      const double scale = std::pow(10.0, 8 - static_cast<int>(std::floor(std::log10(v))));
+      return std::round(v * scale) / scale;
+    };
+    for (Object* obj : in_problem) {
+      const auto [sw, sh] = fsp ? FspSigmas(covariance, obj->fsp) : FhpSigmas(covariance, obj->fhp);
+      sigmas[obj] = {round9(sw), round9(sh)};
+    }
   }
 
   static std::pair<double, double> FspSigmas(const ceres::Covariance& covariance, const FspLandmark& l) {
@@ -706,7 +728,7 @@ std::vector<MapObject> Estimator::Map() const {
     }
   std::vector<MapObject> map;
   for (const auto& [id, obj] : best) {
-    if (obj->observations < d.options.min_observations) continue;
+    if (obj->observations < d.options.min_observations || d.AtDepthBound(*obj)) continue;
     MapObject m;
     m.id = id;
     m.object_class = obj->object_class;
