@@ -48,6 +48,7 @@ bool RectDetectorOptions::Check(std::string* why) const {
     os << "max_side_continuation must be in [0, 1]; ";
   if (!(continuation_start_px >= 0.0)) os << "continuation_start_px must be >= 0; ";
   positive(continuation_frac, "continuation_frac");
+  if (!(continuation_step_px >= 0.0)) os << "continuation_step_px must be >= 0; ";
   if (!(max_abs_cos > 0.0 && max_abs_cos <= 1.0)) os << "max_abs_cos must be in (0, 1]; ";
   if (!(max_aspect >= 1.0)) os << "max_aspect must be >= 1; ";
   if (!(assumed_hfov_deg > 1.0 && assumed_hfov_deg < 179.0))
@@ -811,9 +812,26 @@ double SideContinuation(const EdgeProbe& probe, const Vec2& corner, const Vec2& 
   const int kSamples = std::clamp(static_cast<int>(span / 2.0), 4, 12);
   // Support counts in runs of consecutive samples (the longest run): an edge that runs on is
   // continuous, scattered hits (text, texture beyond the corner) are not.
+  // The edge point at distance t beyond the corner along u, on the extended line.
+  auto on_line = [&](double t) {
+    const Vec2 p = corner + t * u;
+    Vec2 e;
+    double gradient;
+    int sg;
+    return probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign) &&
+           std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+  };
+  // Two consecutive hits extend a run only when the edge is also found between them at least every
+  // `continuation_step_px`: an edge that runs on is continuous, while the ends of text strokes or
+  // texture that happen to line up with the side leave gaps between the (sparse) samples.
+  const double step = span / kSamples;
+  const int n_between =
+      o.continuation_step_px > 0.0 ? static_cast<int>(std::ceil(step / o.continuation_step_px)) - 1
+                                   : 0;
   int valid = 0, run = 0, longest = 0;
   for (int k = 0; k < kSamples; ++k) {
-    const Vec2 p = corner + (o.continuation_start_px + span * (k + 0.5) / kSamples) * u;
+    const double t = o.continuation_start_px + span * (k + 0.5) / kSamples;
+    const Vec2 p = corner + t * u;
     Vec2 e;
     double gradient;
     int sg;
@@ -829,7 +847,14 @@ double SideContinuation(const EdgeProbe& probe, const Vec2& corner, const Vec2& 
       continue;
     }
     ++valid;
-    run = std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5 ? run + 1 : 0;
+    if (std::abs(n_side.dot(e - p)) > o.ransac_inlier_px + 0.5) {
+      run = 0;
+      continue;
+    }
+    bool continuous = run > 0;
+    for (int j = 1; continuous && j <= n_between; ++j)
+      continuous = on_line(t - step + step * j / (n_between + 1));
+    run = continuous ? run + 1 : 1;
     longest = std::max(longest, run);
   }
   return valid >= 3 ? static_cast<double>(longest) / valid : 0.0;
@@ -1233,7 +1258,22 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       const double d = CornerDistanceBestShift(q.c, k.c);
       const double small_side = std::min(ShortestSide(q.c), ShortestSide(k.c));
       if (d <= std::max(2.0, o.duplicate_corner_frac * small_side)) {
-        drop = true;  // duplicate: the kept one scores at least as high
+        // Duplicate: the kept one scores at least as high. But when the new one is the outer of
+        // two near-identical outlines (it contains the kept one, within 1 px of corner precision:
+        // the outer edges of a thick border line against its inner edges) and is not clearly worse
+        // supported, it replaces the kept one, as for concentric nesting below.
+        if (q.area > k.area && q.score >= k.score - o.nest_score_margin) {
+          const Vec2 centre = 0.25 * (q.c[0] + q.c[1] + q.c[2] + q.c[3]);
+          Corners grown;
+          for (int i = 0; i < 4; ++i) {
+            const Vec2 r = q.c[i] - centre;
+            grown[i] = q.c[i] + r / std::max(r.norm(), 1e-9);
+          }
+          bool contains = true;
+          for (const Vec2& p : k.c) contains = contains && InsideConvex(grown, p);
+          if (contains) replace = &k;
+        }
+        drop = true;
         break;
       }
       const Quad& outer = q.area > k.area ? q : k;
