@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 #include <random>
 #include <sstream>
@@ -177,21 +178,18 @@ inline bool Bilinear(const cv::Mat& img, double x, double y, double* v) {
 // the image is dominated by flat regions, where the magnitude of Gaussian noise is
 // Rayleigh-distributed: median = 1.177 σ_r. High threshold = max(multiple · σ_r, 4 · min_contrast)
 // (Sobel's response to a sharp step of C grey levels is 4C); low = ratio · high.
-void CannyThresholds(const cv::Mat& smooth, const RectDetectorOptions& o, double* low,
-                     double* high) {
+void CannyThresholds(const cv::Mat& dx, const cv::Mat& dy, const RectDetectorOptions& o,
+                     double* low, double* high) {
   constexpr int kBins = 2048;
   std::array<int, kBins> hist{};
   int n = 0;
-  // Sobel magnitude at every 3rd pixel of every 3rd row (~34k samples at 640x480, plenty for a
-  // median).
-  for (int y = 1; y < smooth.rows - 1; y += 3) {
-    const uint8_t* r0 = smooth.ptr<uint8_t>(y - 1);
-    const uint8_t* r1 = smooth.ptr<uint8_t>(y);
-    const uint8_t* r2 = smooth.ptr<uint8_t>(y + 1);
-    for (int x = 1; x < smooth.cols - 1; x += 3) {
-      const int gx =
-          (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
-      const int gy = (r2[x - 1] - r0[x - 1]) + 2 * (r2[x] - r0[x]) + (r2[x + 1] - r0[x + 1]);
+  // Sobel magnitude (dx, dy: CV_16S, the gradients Canny uses) at every 3rd pixel of every 3rd row
+  // (~34k samples at 640x480, plenty for a median).
+  for (int y = 1; y < dx.rows - 1; y += 3) {
+    const int16_t* gx_row = dx.ptr<int16_t>(y);
+    const int16_t* gy_row = dy.ptr<int16_t>(y);
+    for (int x = 1; x < dx.cols - 1; x += 3) {
+      const int gx = gx_row[x], gy = gy_row[x];
       const double m = std::sqrt(static_cast<double>(gx * gx + gy * gy));
       ++hist[std::min(kBins - 1, static_cast<int>(m))];
       ++n;
@@ -410,6 +408,14 @@ std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
   for (int y = 1; y < H - 1; ++y) {
     const uint8_t* row = edges.ptr<uint8_t>(y);
     for (int x = 1; x < W - 1; ++x) {
+      // Skip empty stretches 8 bytes at a time (most of an edge map is empty; the byte-wise scan
+      // was ~40 % of the linking time).
+      while (x + 8 <= W - 1) {
+        uint64_t word;
+        std::memcpy(&word, row + x, sizeof(word));
+        if (word) break;
+        x += 8;
+      }
       if (!row[x]) continue;
       const cv::Point seed(x, y);
       edges.at<uint8_t>(seed) = 0;
@@ -825,9 +831,9 @@ double SideContinuation(const EdgeProbe& probe, const Vec2& corner, const Vec2& 
   // `continuation_step_px`: an edge that runs on is continuous, while the ends of text strokes or
   // texture that happen to line up with the side leave gaps between the (sparse) samples.
   const double step = span / kSamples;
-  const int n_between =
-      o.continuation_step_px > 0.0 ? static_cast<int>(std::ceil(step / o.continuation_step_px)) - 1
-                                   : 0;
+  const int n_between = o.continuation_step_px > 0.0
+                            ? static_cast<int>(std::ceil(step / o.continuation_step_px)) - 1
+                            : 0;
   int valid = 0, run = 0, longest = 0;
   for (int k = 0; k < kSamples; ++k) {
     const double t = o.continuation_start_px + span * (k + 0.5) / kSamples;
@@ -1051,10 +1057,13 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
 
   // 1. edges: light smoothing (σ = 1 px) against pixel noise, Sobel, Canny with data-driven
   // thresholds.
-  cv::Mat smooth, edges;
+  // The Sobel gradients are computed once (what cv::Canny would compute inside: 3x3, replicated
+  // border) and serve both the threshold statistics and Canny.
+  cv::Mat smooth, edges, dx, dy;
   cv::GaussianBlur(gray, smooth, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
-  CannyThresholds(smooth, o, &res.canny_low, &res.canny_high);
-  cv::Canny(smooth, edges, res.canny_low, res.canny_high, 3, true);
+  cv::spatialGradient(smooth, dx, dy, 3, cv::BORDER_REPLICATE);
+  CannyThresholds(dx, dy, o, &res.canny_low, &res.canny_high);
+  cv::Canny(dx, dy, edges, res.canny_low, res.canny_high, true);
   res.times.Add("edges", sw.Lap());
 
   // 2. segments: edge chains split into straight pieces, each fitted by least squares.

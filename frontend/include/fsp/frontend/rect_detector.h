@@ -155,10 +155,10 @@ struct RectDetectorOptions {
   double continuation_start_px = 4.0;
   double continuation_frac = 0.3;
   // Consecutive continuation samples (2 px apart, at most 12 over `continuation_frac` x the side:
-  // ~10 px apart on a 400 px side) form one run only when the edge is also found between them at least every
-  // this many px [px]: a line running on is continuous; the ends of text strokes or texture that
-  // line up with the side are not. Smaller is stricter (and costs more probes); 0 switches the
-  // in-between check off.
+  // ~10 px apart on a 400 px side) form one run only when the edge is also found between them at
+  // least every this many px [px]: a line running on is continuous; the ends of text strokes or
+  // texture that line up with the side are not. Smaller is stricter (and costs more probes); 0
+  // switches the in-between check off.
   double continuation_step_px = 3.0;
   // Corner reach test: each side's edge must reach its corners. Points on the side's line from
   // `reach_start_px` to max(`reach_min_px`, `reach_frac` x the side's length) from each corner are
