@@ -100,7 +100,31 @@ struct Estimator::Impl {
   // Window mode: the best-observed earlier instance of each re-initialised object (the map reports
   // whichever instance of an id has more observations).
   std::map<int, std::unique_ptr<Object>> retired;
-  std::vector<StateSample> output;            // per keyframe, the state reported for it
+  std::vector<StateSample> output;            // per frame, the state reported for it
+  // Frames that were not kept as keyframes: their pose and velocity relative to the keyframe before
+  // them, from their own solve. They are reported relative to that keyframe's final estimate (as
+  // keyframe-based systems write trajectories): reporting their own solve next to keyframes refined
+  // over the whole window made the trajectory jump at every keyframe (0.8 deg, measured).
+  struct Dropped {
+    int frame;
+    const Keyframe* ref;
+    Rigid3 T_ref_B;
+    Vec3 v_ref;  // velocity in the ref body frame
+  };
+  std::vector<Dropped> dropped;
+
+  std::vector<StateSample> Reported() const {
+    std::vector<StateSample> out = output;
+    for (const Dropped& d : dropped) {
+      const StateSample& ref = out[d.ref->frame];
+      StateSample& s = out[d.frame];
+      s.T_W_B = ref.T_W_B * d.T_ref_B;
+      s.v_W = ref.T_W_B.rotation() * d.v_ref;
+      s.gyro_bias = ref.gyro_bias;
+      s.acc_bias = ref.acc_bias;
+    }
+    return out;
+  }
   size_t window_begin = 0;                     // index of the oldest keyframe in the window
   Rigid3 T_W_B0;                               // gauge prior of the first keyframe
   Eigen::Matrix<double, 9, 1> sb0 = Eigen::Matrix<double, 9, 1>::Zero();
@@ -233,6 +257,10 @@ struct Estimator::Impl {
   // observations are forgotten, and the next frame's IMU factor starts at the last keyframe.
   void DropNewest() {
     const Keyframe& kf = *keyframes.back();
+    const Keyframe* ref = keyframes[keyframes.size() - 2].get();  // a keyframe (see AddKeyframe)
+    const Rigid3 T_W_ref = ref->state.T_W_B();
+    dropped.push_back({kf.frame, ref, T_W_ref.Inverse() * kf.state.T_W_B(),
+                       T_W_ref.rotation().conjugate() * kf.state.v_W()});
     for (const ObjectObservation& o : kf.observations) {
       auto it = objects.find(o.object_id);
       if (it == objects.end()) continue;
@@ -708,12 +736,12 @@ void Estimator::Finish() {
   }
 }
 
-std::vector<StateSample> Estimator::States() const { return impl_->output; }
+std::vector<StateSample> Estimator::States() const { return impl_->Reported(); }
 
 std::vector<StampedPose> Estimator::Trajectory() const {
   std::vector<StampedPose> poses;
   poses.reserve(impl_->output.size());
-  for (const StateSample& s : impl_->output) poses.push_back({s.t_ns, s.T_W_B});
+  for (const StateSample& s : impl_->Reported()) poses.push_back({s.t_ns, s.T_W_B});
   return poses;
 }
 

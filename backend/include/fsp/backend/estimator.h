@@ -152,8 +152,9 @@ class Estimator {
   // Ends the sequence: final window solve, or the full batch solve.
   void Finish();
 
-  // Body pose per frame: in window mode the estimate when the frame left the window (online), or the
-  // final one for the last window; in batch mode the batch solution.
+  // Body pose per frame: in window mode a keyframe's estimate when it left the window (or the final one
+  // for the last window), a frame that was not kept as a keyframe relative to the keyframe before it
+  // (its own solve gave the relative pose); in batch mode the batch solution.
   std::vector<StampedPose> Trajectory() const;
   std::vector<StateSample> States() const;
   // Objects with >= min_observations whose depth is not on the min/max_depth_m box (unconstrained),
