@@ -248,8 +248,9 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
   for (int oi = 0; oi < n; ++oi) {
     const int i = order[oi];
     // Neighbours in angle (with wrap-around at π).
-    for (int k = 1; k < n; ++k) {
-      const int j = order[(oi + k) % n];
+    for (int k = 1, ok = oi + 1; k < n; ++k, ++ok) {
+      if (ok == n) ok = 0;  // (oi + k) mod n without a division per step
+      const int j = order[ok];
       double d = theta[j] - theta[i];
       if (d < 0) d += 2 * M_PI;
       if (d > tol) break;
@@ -1118,18 +1119,24 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   std::vector<Line> seg_lines(ns);
   for (int i = 0; i < ns; ++i) seg_lines[i] = LineOf(segs[i]);
   const double min_sin = std::sin(o.min_corner_angle_deg * M_PI / 180.0);
+  // Compact copies of what the pair loop's cheap rejections read (the segments themselves carry
+  // their polylines: a cache miss per pair).
+  struct SegEnds {
+    Vec2 a, b, dir;
+    double len;
+  };
+  std::vector<SegEnds> se(ns);
+  for (int i = 0; i < ns; ++i) se[i] = {segs[i].a, segs[i].b, segs[i].dir, segs[i].len};
   for (int i = 0; i < ns; ++i)
     for (int j = i + 1; j < ns; ++j) {
-      const double s =
-          std::abs(segs[i].dir.x() * segs[j].dir.y() - segs[i].dir.y() * segs[j].dir.x());
+      const SegEnds &si = se[i], &sj = se[j];
+      const double s = std::abs(si.dir.x() * sj.dir.y() - si.dir.y() * sj.dir.x());
       if (s < min_sin) continue;
       // Cheap rejection: the nearest endpoints must be within reach of both junction tolerances.
-      const double reach =
-          (o.junction_gap_frac + o.junction_overshoot_frac) * (segs[i].len + segs[j].len) +
-          2.0 * o.junction_slack_px;
-      const double dmin2 =
-          std::min({(segs[i].a - segs[j].a).squaredNorm(), (segs[i].a - segs[j].b).squaredNorm(),
-                    (segs[i].b - segs[j].a).squaredNorm(), (segs[i].b - segs[j].b).squaredNorm()});
+      const double reach = (o.junction_gap_frac + o.junction_overshoot_frac) * (si.len + sj.len) +
+                           2.0 * o.junction_slack_px;
+      const double dmin2 = std::min({(si.a - sj.a).squaredNorm(), (si.a - sj.b).squaredNorm(),
+                                     (si.b - sj.a).squaredNorm(), (si.b - sj.b).squaredNorm()});
       if (dmin2 > reach * reach) continue;
       // A curved segment meets the other one with the piece at its nearer end.
       auto near_end = [](const Seg& s1, const Seg& s2) {
