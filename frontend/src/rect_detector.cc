@@ -359,13 +359,14 @@ std::vector<Seg> CurvedChains(const std::vector<Seg>& segs, double touch_px, dou
 
 // Edge linking: traces 8-connected chains of Canny pixels (consumes `edges`). At each step the
 // unvisited neighbour that best continues the current direction is taken; branches become chains of
-// their own. Each chain is traced from its seed in both directions.
-std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
+// their own. Each chain is traced from its seed in both directions and handed to `on_chain` (a
+// buffer reused for every chain).
+template <class OnChain>
+void TraceChains(cv::Mat& edges, int min_len, OnChain&& on_chain) {
   static const int kDx[8] = {1, 1, 0, -1, -1, -1, 0, 1};
   static const int kDy[8] = {0, 1, 1, 1, 0, -1, -1, -1};
   static const float kInvLen[8] = {1.f, 0.70710678f, 1.f, 0.70710678f,
                                    1.f, 0.70710678f, 1.f, 0.70710678f};
-  std::vector<std::vector<cv::Point>> chains;
   const int W = edges.cols, H = edges.rows;
   // Border pixels are cleared so neighbour lookups stay inside the image.
   edges.row(0).setTo(0);
@@ -405,7 +406,7 @@ std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
       dir = best;
     }
   };
-  std::vector<cv::Point> fwd, bwd;
+  std::vector<cv::Point> fwd, bwd, chain;  // reused: no allocation per chain
   for (int y = 1; y < H - 1; ++y) {
     const uint8_t* row = edges.ptr<uint8_t>(y);
     for (int x = 1; x < W - 1; ++x) {
@@ -432,13 +433,12 @@ std::vector<std::vector<cv::Point>> TraceChains(cv::Mat& edges, int min_len) {
         walk(seed, back, &bwd);
       }
       if (static_cast<int>(fwd.size() + bwd.size()) + 1 < min_len) continue;
-      std::vector<cv::Point> chain(bwd.rbegin(), bwd.rend());
+      chain.assign(bwd.rbegin(), bwd.rend());
       chain.push_back(seed);
       chain.insert(chain.end(), fwd.begin(), fwd.end());
-      chains.push_back(std::move(chain));
+      on_chain(chain);
     }
   }
-  return chains;
 }
 
 // Splits a pixel chain into straight pieces (recursive split at the farthest point from the chord
@@ -1074,8 +1074,9 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   // another edge takes a stretch of it, leaving short pieces of a long side that merging joins
   // again.
   const int min_piece = std::max(6, min_seg / 3);
-  for (const auto& chain : TraceChains(edges, min_piece))
+  TraceChains(edges, min_piece, [&](const std::vector<cv::Point>& chain) {
     SplitChain(chain, 0, static_cast<int>(chain.size()) - 1, o.segment_fit_px, min_piece, &raw);
+  });
   std::vector<Seg> segs;
   segs.reserve(raw.size());
   for (const auto& r : raw) {
