@@ -577,6 +577,13 @@ struct EdgeProbe {
         m(static_cast<int>(std::lround(opt.search_px / opt.search_step_px))),
         prof(2 * m + 1) {}
 
+  // Whether a search at undistorted p lies wholly inside the image (an edge could have been found).
+  bool Searchable(const Vec2& p) const {
+    const Vec2 d = cam ? cam->DistortPixel(p) : p;
+    const double r = o.search_px + 1.0;
+    return d.x() >= r && d.y() >= r && d.x() < smooth.cols - 1 - r && d.y() < smooth.rows - 1 - r;
+  }
+
   bool Peak(const Vec2& p, const Vec2& n, double min_gradient, Vec2* edge, double* gradient,
             int* sign, int want_sign = 0) const {
     // With distortion the search runs along the image of the normal, nd = J n / |J n| (J: the
@@ -844,10 +851,7 @@ double SideContinuation(const EdgeProbe& probe, const Vec2& corner, const Vec2& 
     int sg;
     if (!probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign)) {
       // Outside the image is not evidence either way; no edge inside is evidence against.
-      Vec2 d = probe.cam ? probe.cam->DistortPixel(p) : p;
-      const double r = o.search_px + 1.0;
-      if (d.x() >= r && d.y() >= r && d.x() < probe.smooth.cols - 1 - r &&
-          d.y() < probe.smooth.rows - 1 - r) {
+      if (probe.Searchable(p)) {
         ++valid;
         run = 0;
       }
@@ -884,11 +888,7 @@ double CornerReach(const EdgeProbe& probe, const Vec2& corner, const Vec2& u, bo
     double gradient;
     int sg;
     if (!probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign)) {
-      Vec2 d = probe.cam ? probe.cam->DistortPixel(p) : p;
-      const double r = o.search_px + 1.0;
-      if (d.x() >= r && d.y() >= r && d.x() < probe.smooth.cols - 1 - r &&
-          d.y() < probe.smooth.rows - 1 - r)
-        ++valid;
+      valid += probe.Searchable(p) ? 1 : 0;
       continue;
     }
     ++valid;

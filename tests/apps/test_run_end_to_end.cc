@@ -133,38 +133,34 @@ TEST(RunEndToEnd, WindowModeWithOnePixelNoise) {
 
 // Batch mode with 1 px noise, FSP and the FHP baseline. Measured (seed 1): FSP ATE 2.7 cm, width error
 // mean 0.60 cm (max 1.5), height 0.54 cm (max 1.4), corner mean 3.5 cm; FHP ATE 3.5 cm, width 1.1 cm
-// (max 3.2), corner mean 5.0 cm; width sigma 0.2-7.3 cm for both. Before every periodic batch solve was run to convergence (6 iterations
-// each) the default scene diverged (ATE 39 m).
+// (max 3.2), height 1.1 cm, corner mean 5.0 cm; width sigma 0.2-7.3 cm for both. Before every periodic
+// batch solve was run to convergence (6 iterations each) the default scene diverged (ATE 39 m).
 TEST(RunEndToEnd, BatchModeWithOnePixelNoiseFspAndFhp) {
   const fs::path dir = test::ScratchDir();
-  const RunResult f = RunAndEvaluate("--mode batch --landmarks fsp --seed 1", dir / "fsp");
-  ASSERT_TRUE(f.metrics.trajectory.has_value());
-  ASSERT_TRUE(f.metrics.objects.has_value());
-  Print("batch fsp, 1 px", f);
-  EXPECT_LT(f.metrics.trajectory->ate.rmse, 0.04);
-  EXPECT_LT(f.metrics.objects->width_err.mean, 0.009);
-  EXPECT_LT(f.metrics.objects->height_err.mean, 0.008);
-  EXPECT_LT(f.metrics.objects->width_err.max, 0.025);
-  EXPECT_LT(f.metrics.objects->corner_err.mean, 0.05);
-
-  const RunResult h = RunAndEvaluate("--mode batch --landmarks fhp --seed 1", dir / "fhp");
-  ASSERT_TRUE(h.metrics.trajectory.has_value());
-  ASSERT_TRUE(h.metrics.objects.has_value());
-  Print("batch fhp, 1 px", h);
-  EXPECT_LT(h.metrics.trajectory->ate.rmse, 0.05);
-  EXPECT_LT(h.metrics.objects->width_err.mean, 0.016);
-  EXPECT_LT(h.metrics.objects->corner_err.mean, 0.07);
-  // Both report width/height sigma from the covariance (FHP: propagated from its 12 corner parameters).
-  for (const char* run : {"fsp", "fhp"}) {
-    std::ifstream in(dir / run / "map.json");
+  struct Bounds {
+    const char* landmarks;
+    double ate, width_mean, width_max, height_mean, corner_mean;
+  };
+  for (const Bounds& b : {Bounds{"fsp", 0.04, 0.009, 0.025, 0.008, 0.05}, Bounds{"fhp", 0.05, 0.016, 0.045, 0.016, 0.07}}) {
+    const RunResult r = RunAndEvaluate(std::string("--mode batch --seed 1 --landmarks ") + b.landmarks, dir / b.landmarks);
+    ASSERT_TRUE(r.metrics.trajectory.has_value()) << b.landmarks;
+    ASSERT_TRUE(r.metrics.objects.has_value()) << b.landmarks;
+    Print(b.landmarks, r);
+    EXPECT_LT(r.metrics.trajectory->ate.rmse, b.ate) << b.landmarks;
+    EXPECT_LT(r.metrics.objects->width_err.mean, b.width_mean) << b.landmarks;
+    EXPECT_LT(r.metrics.objects->width_err.max, b.width_max) << b.landmarks;
+    EXPECT_LT(r.metrics.objects->height_err.mean, b.height_mean) << b.landmarks;
+    EXPECT_LT(r.metrics.objects->corner_err.mean, b.corner_mean) << b.landmarks;
+    // Width/height sigma from the covariance (FHP: propagated from its 12 corner parameters).
+    std::ifstream in(dir / b.landmarks / "map.json");
     nlohmann::json map;
     in >> map;
-    ASSERT_FALSE(map["objects"].empty()) << run;
+    ASSERT_FALSE(map["objects"].empty()) << b.landmarks;
     for (const auto& o : map["objects"]) {
-      ASSERT_TRUE(o["width_sigma"].is_number()) << run << " object " << o["id"];
-      EXPECT_GT(o["width_sigma"].get<double>(), 0.0) << run;
-      EXPECT_LT(o["width_sigma"].get<double>(), 0.15) << run;  // measured 0.002-0.073 m
-      EXPECT_GT(o["height_sigma"].get<double>(), 0.0) << run;
+      ASSERT_TRUE(o["width_sigma"].is_number()) << b.landmarks << " object " << o["id"];
+      EXPECT_GT(o["width_sigma"].get<double>(), 0.0) << b.landmarks;
+      EXPECT_LT(o["width_sigma"].get<double>(), 0.15) << b.landmarks;  // measured 0.002-0.073 m
+      EXPECT_GT(o["height_sigma"].get<double>(), 0.0) << b.landmarks;
     }
   }
 }
