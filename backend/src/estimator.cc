@@ -335,9 +335,9 @@ struct Estimator::Impl {
     return std::sqrt(sum2 / 4.0) <= options.reinit_gate_px;
   }
 
-  // Whether the object's depth sits on the box [min_depth_m, max_depth_m] (an FHP corner's, any): the
-  // views never constrained it (no parallax; a wrong single-view start), so its size and place are
-  // not estimates; the map leaves it out.
+  // Whether the object's depth sits on the box [min_depth_m, max_depth_m] (an FHP corner's, any): such
+  // a depth is not an estimate (no parallax; or, seen in window mode and not yet understood, a collapse
+  // onto the minimum), so neither are its size and place; the map leaves it out.
   bool AtDepthBound(const Object& obj) const {
     const double lo = -std::log(options.max_depth_m), hi = -std::log(options.min_depth_m);
     const auto at = [&](double log_omega) { return log_omega <= lo + 1e-6 || log_omega >= hi - 1e-6; };
