@@ -338,13 +338,16 @@ struct Estimator::Impl {
   // Whether the object's depth sits on the box [min_depth_m, max_depth_m] (an FHP corner's, any): such
   // a depth is not an estimate (no parallax; or, seen in window mode and not yet understood, a collapse
   // onto the minimum), so neither are its size and place; the map leaves it out.
-  bool AtDepthBound(const Object& obj) const {
+  bool AtDepthBound(const Object& obj) const { return !DepthInBox(obj.fsp, obj.fhp); }
+
+  // Whether the depth of s1 (FSP) or of every corner (FHP) lies strictly inside the depth box.
+  bool DepthInBox(const FspLandmark& fsp, const FhpLandmark& fhp) const {
     const double lo = -std::log(options.max_depth_m), hi = -std::log(options.min_depth_m);
-    const auto at = [&](double log_omega) { return log_omega <= lo + 1e-6 || log_omega >= hi - 1e-6; };
-    if (options.landmarks == LandmarkType::kFsp) return at(obj.fsp.x[kFspLogOmega]);
-    for (const auto& c : obj.fhp.corner)
-      if (at(c[2])) return true;
-    return false;
+    const auto inside = [&](double log_omega) { return log_omega > lo + 1e-6 && log_omega < hi - 1e-6; };
+    if (options.landmarks == LandmarkType::kFsp) return inside(fsp.x[kFspLogOmega]);
+    for (const auto& c : fhp.corner)
+      if (!inside(c[2])) return false;
+    return true;
   }
 
   // --- Problem construction -----------------------------------------------------------------------
@@ -520,7 +523,11 @@ struct Estimator::Impl {
         FhpLandmark fhp_new;
         const bool ok = options.landmarks == LandmarkType::kFsp ? ReanchorFsp(obj->fsp, T_W_F, T_W_Fnew, &fsp_new)
                                                                 : ReanchorFhp(obj->fhp, T_W_F, T_W_Fnew, &fhp_new);
-        if (!ok) continue;
+        // A keyframe that sees s1 barely in front (looking along the wall past it) would put the
+        // object's depth outside the box, where the bound clamps it and destroys its geometry
+        // (measured: the default scene's objects collapsed onto the 0.3 m minimum right after such a
+        // re-anchoring); take the newest keyframe that keeps the depth inside.
+        if (!ok || !DepthInBox(fsp_new, fhp_new)) continue;
         if (options.landmarks == LandmarkType::kFsp) obj->fsp = fsp_new;
         else obj->fhp = fhp_new;
         obj->anchor = cand;

@@ -103,13 +103,13 @@ void Print(const char* label, const RunResult& r) {
               r.run["stage_ms"]["backend"]["median"].get<double>());
 }
 
-// Bounds: measured values plus ~40-60 % margin. With 1 px noise the window mode is far from the issue's
-// targets on this short, low-resolution sequence (320 x 240). Measured with the defaults (keyframes
-// every 0.2 s, mature_views 1, reinit_gate_px 0): ATE 0.15 m, width error mean 4.4 cm, corner error
-// mean 12 cm, but only 2 of 12 objects in the map: the others (tags 30/31 among them) ended on the depth
-// box (their depth unconstrained or collapsed) and are left out (before that filter, 5 objects with
-// corner errors up to 2 m; every frame a keyframe: ATE 0.47 m). These bounds guard against regressions
-// and are to be tightened as the window mode improves; noise-free corners give 3 cm.
+// Bounds: measured values plus ~50 % margin. With 1 px noise the window mode is far from the issue's
+// targets on this short, low-resolution sequence (320 x 240). Measured with the defaults: ATE 9.1 cm,
+// 5 objects in the map (the others are never fully visible long enough), width error mean 8.5 cm
+// (max 31 cm), corner error mean 26 cm. Before re-anchoring kept depths inside the depth box, objects
+// collapsed onto the 0.3 m minimum and only 2 reached the map (ATE 14.5 cm). These bounds guard
+// against regressions and are to be tightened as the window mode improves; noise-free corners give
+// 3 cm.
 TEST(RunEndToEnd, WindowModeWithOnePixelNoise) {
   const RunResult r = RunAndEvaluate("--mode window --landmarks fsp --seed 1", test::ScratchDir() / "run");
   ASSERT_TRUE(r.metrics.trajectory.has_value());
@@ -124,11 +124,11 @@ TEST(RunEndToEnd, WindowModeWithOnePixelNoise) {
   const auto& t = *r.metrics.trajectory;
   const auto& o = *r.metrics.objects;
   EXPECT_EQ(t.pairs, 200u);
-  EXPECT_GE(o.matched, 2u);
-  EXPECT_LT(t.ate.rmse, 0.25);
-  EXPECT_LT(o.width_err.mean, 0.07);
-  EXPECT_LT(o.height_err.mean, 0.06);
-  EXPECT_LT(o.corner_err.mean, 0.20);
+  EXPECT_GE(o.matched, 4u);
+  EXPECT_LT(t.ate.rmse, 0.15);
+  EXPECT_LT(o.width_err.mean, 0.13);
+  EXPECT_LT(o.height_err.mean, 0.11);
+  EXPECT_LT(o.corner_err.mean, 0.40);
 }
 
 // Batch mode with 1 px noise, FSP and the FHP baseline. Measured (seed 1): FSP ATE 2.7 cm, width error
