@@ -1279,17 +1279,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
         // two near-identical outlines (it contains the kept one, within 1 px of corner precision:
         // the outer edges of a thick border line against its inner edges) and is not clearly worse
         // supported, it replaces the kept one, as for concentric nesting below.
-        if (q.area > k.area && q.score >= k.score - o.nest_score_margin) {
-          const Vec2 centre = 0.25 * (q.c[0] + q.c[1] + q.c[2] + q.c[3]);
-          Corners grown;
-          for (int i = 0; i < 4; ++i) {
-            const Vec2 r = q.c[i] - centre;
-            grown[i] = q.c[i] + r / std::max(r.norm(), 1e-9);
-          }
-          bool contains = true;
-          for (const Vec2& p : k.c) contains = contains && InsideConvex(grown, p);
-          if (contains) replace = &k;
-        }
+        if (q.area > k.area && q.score >= k.score - o.nest_score_margin && ContainsWithMargin(q.c, k.c, 1.0))
+          replace = &k;
         drop = true;
         break;
       }
@@ -1297,14 +1288,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       const Quad& inner = q.area > k.area ? k : q;
       // "Inside" with a margin: shared corners lie on the outer outline, not strictly inside it.
       const double dup_tol = std::max(2.0, o.duplicate_corner_frac * small_side);
-      const Vec2 centre = 0.25 * (outer.c[0] + outer.c[1] + outer.c[2] + outer.c[3]);
-      Corners grown;
-      for (int i = 0; i < 4; ++i) {
-        const Vec2 r = outer.c[i] - centre;
-        grown[i] = outer.c[i] + dup_tol * r / std::max(r.norm(), 1e-9);
-      }
-      bool inside = true;
-      for (const Vec2& p : inner.c) inside = inside && InsideConvex(grown, p);
+      const bool inside = ContainsWithMargin(outer.c, inner.c, dup_tol);
       const bool concentric = d <= o.nest_corner_frac * ShortestSide(outer.c);
       if (!inside) {
         // Near-concentric but crossing (the left side from one outline, the right from the other):
@@ -1365,15 +1349,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       for (const Quad& p : probes) {
         if (margin || p.area >= k.area) continue;
         if (CornerDistanceBestShift(k.c, p.c) > o.nest_corner_frac * ShortestSide(k.c)) continue;
-        const Vec2 centre = 0.25 * (k.c[0] + k.c[1] + k.c[2] + k.c[3]);
-        Corners grown;  // 2 px margin: variants of the outline share sides with the probe
-        for (int i = 0; i < 4; ++i) {
-          const Vec2 r = k.c[i] - centre;
-          grown[i] = k.c[i] + 2.0 * r / std::max(r.norm(), 1e-9);
-        }
-        bool inside = true;
-        for (const Vec2& c : p.c) inside = inside && InsideConvex(grown, c);
-        margin = inside && IsBrightMargin(smooth, cam, k.c, p.c, o) && LCornered(p);
+        // 2 px margin: variants of the outline share sides with the probe.
+        margin = ContainsWithMargin(k.c, p.c, 2.0) && IsBrightMargin(smooth, cam, k.c, p.c, o) && LCornered(p);
       }
       if (!margin) not_margin.push_back(k);
     }
@@ -1391,29 +1368,11 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     std::vector<Quad> outer_only;
     for (const Quad& q : unique) {
       bool contained = false;
-      for (const Quad& u : unique) {
-        if (&u == &q || u.area <= q.area) continue;
-        const Vec2 centre = 0.25 * (u.c[0] + u.c[1] + u.c[2] + u.c[3]);
-        Corners grown;
-        for (int i = 0; i < 4; ++i) {
-          const Vec2 r = u.c[i] - centre;
-          grown[i] = u.c[i] + 2.0 * r / std::max(r.norm(), 1e-9);
-        }
-        bool inside = true;
-        for (const Vec2& p : q.c) inside = inside && InsideConvex(grown, p);
-        contained = contained || inside;
-      }
+      for (const Quad& u : unique)
+        contained = contained || (&u != &q && u.area > q.area && ContainsWithMargin(u.c, q.c, 2.0));
       for (const Quad& u : cut_off) {
         if (contained || u.area <= q.area) continue;
-        const Vec2 centre = 0.25 * (u.c[0] + u.c[1] + u.c[2] + u.c[3]);
-        Corners grown;
-        for (int i = 0; i < 4; ++i) {
-          const Vec2 r = u.c[i] - centre;
-          grown[i] = u.c[i] + 2.0 * r / std::max(r.norm(), 1e-9);
-        }
-        bool inside = true;
-        for (const Vec2& p : q.c) inside = inside && InsideConvex(grown, p);
-        contained = inside &&
+        contained = ContainsWithMargin(u.c, q.c, 2.0) &&
                     !(o.prefer_inner_of_bright_margin && IsBrightMargin(smooth, cam, u.c, q.c, o));
       }
       if (!contained) outer_only.push_back(q);

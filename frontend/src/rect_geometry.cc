@@ -74,6 +74,18 @@ bool InsideConvex(const Corners& c, const Vec2& p) {
   return pos == 4 || neg == 4;
 }
 
+bool ContainsWithMargin(const Corners& outer, const Corners& inner, double margin_px) {
+  const Vec2 centre = 0.25 * (outer[0] + outer[1] + outer[2] + outer[3]);
+  Corners grown;
+  for (int i = 0; i < 4; ++i) {
+    const Vec2 r = outer[i] - centre;
+    grown[i] = outer[i] + margin_px * r / std::max(r.norm(), 1e-9);
+  }
+  for (const Vec2& p : inner)
+    if (!InsideConvex(grown, p)) return false;
+  return true;
+}
+
 std::optional<Vec2> GravityImageDirection(const Vec2& m, const Mat3& K, const Vec3& g) {
   const double fx = K(0, 0), fy = K(1, 1);
   const double xn = (m.x() - K(0, 2)) / fx, yn = (m.y() - K(1, 2)) / fy;

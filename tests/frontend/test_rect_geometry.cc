@@ -69,3 +69,21 @@ TEST(GravityImageDirection, UndefinedAlongTheViewingRay) {
 
 }  // namespace
 }  // namespace fsp::frontend
+
+namespace fsp::frontend {
+namespace {
+
+// A quad sharing a side with the outer one is inside; one reaching 3 px past the outer side is inside
+// with a 5 px margin, not with 2 px; the outer is not inside the smaller one.
+TEST(RectGeometry, ContainsWithMarginToleratesSharedSides) {
+  const Corners outer = {Vec2(0, 100), Vec2(100, 100), Vec2(100, 0), Vec2(0, 0)};
+  const Corners shared = {Vec2(0, 100), Vec2(50, 100), Vec2(50, 50), Vec2(0, 50)};
+  const Corners past = {Vec2(10, 103), Vec2(50, 103), Vec2(50, 50), Vec2(10, 50)};
+  EXPECT_TRUE(ContainsWithMargin(outer, shared, 2.0));
+  EXPECT_TRUE(ContainsWithMargin(outer, past, 5.0));
+  EXPECT_FALSE(ContainsWithMargin(outer, past, 2.0));
+  EXPECT_FALSE(ContainsWithMargin(shared, outer, 2.0));
+}
+
+}  // namespace
+}  // namespace fsp::frontend

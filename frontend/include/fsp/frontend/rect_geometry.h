@@ -38,6 +38,9 @@ double SignedArea(const Corners& c);
 bool IsConvex(const Corners& c);
 // True when p is inside the convex quad (any orientation).
 bool InsideConvex(const Corners& c, const Vec2& p);
+// True when every corner of `inner` is inside `outer` grown by `margin_px` (each corner moved that far
+// away from the centroid): "inside" that tolerates shared sides and corners.
+bool ContainsWithMargin(const Corners& outer, const Corners& inner, double margin_px);
 
 // Puts four corners of a convex quad (any start, either orientation) into s1..s4 order.
 //  - Orientation: counter-clockwise on screen (negative SignedArea), the order of a front view.
