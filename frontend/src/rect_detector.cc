@@ -1,5 +1,7 @@
 #include "fsp/frontend/rect_detector.h"
 
+#include "fsp/frontend/edge_refine.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -634,8 +636,10 @@ struct EdgeProbe {
 // RANSAC line; when the lines fitted to its two halves disagree with it by more than `bend_px` at
 // the corners (a bent side: paper, residual distortion), each corner is taken from the half-lines
 // next to it.
+// `side_want` gives the polarity of sides without a segment (0: either).
 bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min_gradient,
-                std::mt19937* rng, Quad* q, std::array<SideEdge, 4>* side_edges) {
+                std::mt19937* rng, Quad* q, std::array<SideEdge, 4>* side_edges,
+                const std::array<int, 4>& side_want = {0, 0, 0, 0}) {
   const RectDetectorOptions& o = probe.o;
   std::array<Line, 4> start_line, end_line;  // line used at the side's first / last corner
   double support_sum = 0.0;
@@ -667,8 +671,9 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
     // The segment's polarity fixes the side's: only edges of that polarity are searched (a thin
     // line's other edge, a groove's, is not the side). Segments are brighter towards (dy, -dx)
     // (see the segments stage), the opposite of n = (-u.y, u.x) here when they run along u.
-    const int want_sign =
-        o.polarity_from_segment && sg_side ? (sg_side->dir.dot(u) > 0.0 ? -1 : 1) : 0;
+    const int want_sign = !sg_side                 ? side_want[side]
+                          : o.polarity_from_segment ? (sg_side->dir.dot(u) > 0.0 ? -1 : 1)
+                                                    : 0;
     // A curved side is sampled every 3 px from close to its corners, and each corner comes from
     // the stretch of its end piece nearest to it (`curved_corner_frac`): the rest of a curled
     // page's edge wanders by a pixel or more.
@@ -1045,6 +1050,37 @@ bool IsBrightMargin(const cv::Mat& smooth, const PinholeRadtan* cam, const Corne
 
 }  // namespace
 
+cv::Mat EdgeRefineImage(const cv::Mat& gray) {
+  FSP_CHECK(gray.type() == CV_8UC1 && !gray.empty());
+  cv::Mat smooth;
+  cv::GaussianBlur(gray, smooth, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
+  return smooth;
+}
+
+EdgeRefinement RefineCornersOnEdges(const cv::Mat& smooth, const PinholeRadtan* camera,
+                                    const Corners& corners_undistorted, double min_gradient,
+                                    const RectDetectorOptions& options,
+                                    const std::array<int, 4>& want_sign) {
+  FSP_CHECK(smooth.type() == CV_8UC1 && !smooth.empty());
+  if (camera) FSP_CHECK(camera->width == smooth.cols && camera->height == smooth.rows);
+  EdgeRefinement out;
+  if (!IsConvex(corners_undistorted)) return out;
+  const EdgeProbe probe(smooth, camera, options);
+  std::mt19937 rng(options.seed);
+  Quad q;
+  q.c = corners_undistorted;
+  std::array<SideEdge, 4> edges;
+  if (!RefineQuad(probe, {}, min_gradient, &rng, &q, &edges, want_sign)) return out;
+  out.ok = true;
+  out.corners_undistorted = q.c;
+  out.support = q.score;
+  for (int i = 0; i < 4; ++i) {
+    out.side_sign[i] = edges[i].sign;
+    out.side_gradient[i] = edges[i].gradient;
+  }
+  return out;
+}
+
 RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadtan* camera,
                                           const Vec3* gravity_C) const {
   FSP_CHECK(gray.type() == CV_8UC1 && !gray.empty());
@@ -1060,8 +1096,8 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   // thresholds.
   // The Sobel gradients are computed once (what cv::Canny would compute inside: 3x3, replicated
   // border) and serve both the threshold statistics and Canny.
-  cv::Mat smooth, edges, dx, dy;
-  cv::GaussianBlur(gray, smooth, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
+  cv::Mat edges, dx, dy;
+  const cv::Mat smooth = EdgeRefineImage(gray);
   cv::spatialGradient(smooth, dx, dy, 3, cv::BORDER_REPLICATE);
   CannyThresholds(dx, dy, o, &res.canny_low, &res.canny_high);
   cv::Canny(dx, dy, edges, res.canny_low, res.canny_high, true);
