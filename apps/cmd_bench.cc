@@ -70,6 +70,7 @@ Json RunVariant(const Variant& v, const std::string& sequence, const fs::path& r
   config.estimator.mode = v.mode;
   RunRequest request;
   request.source.input = sequence;
+  request.frontend = "gt-corners";
   request.out_dir = run_dir.string();
   request.progress = true;
   std::printf("bench: running %s ...\n", v.name);

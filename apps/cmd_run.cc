@@ -1,6 +1,8 @@
-// fsp run INPUT --out DIR [--calib FILE] [--imu FILE] [--config FILE] [--frontend gt-corners]
+// fsp run INPUT --out DIR [--calib FILE] [--imu FILE] [--config FILE] [--frontend
+// rect|apriltag|gt-corners]
 //         [--landmarks fsp|fhp] [--mode window|batch] [--realtime] [--seed N]
-// Runs the pipeline on a recording and writes trajectory.tum, map.json, observations.csv and run.json.
+// Runs the pipeline on a recording and writes trajectory.tum, map.json, observations.csv and
+// run.json.
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -43,47 +45,74 @@ void Run(const RunArgs& args) {
   if (!r.summary.init_failure.empty()) {
     throw InputError("static initialisation refused: " + r.summary.init_failure);
   }
-  std::printf("fsp run: %s, %s landmarks, %s mode, front end %s (sigma %.3g px, seed %u)\n", r.input.c_str(),
-              r.landmarks.c_str(), r.mode.c_str(), r.frontend.c_str(), r.pixel_sigma, r.seed);
-  std::printf("  frames %d (%d processed, %d dropped), keyframes %d, observations %d, objects in map %d\n",
-              r.frames, r.frames_processed, r.frames_dropped, r.keyframes, r.observations, r.objects);
+  std::printf("fsp run: %s, %s landmarks, %s mode, front end %s", r.input.c_str(),
+              r.landmarks.c_str(), r.mode.c_str(), r.frontend.c_str());
+  if (r.frontend == "gt-corners") std::printf(" (sigma %.3g px, seed %u)", r.pixel_sigma, r.seed);
+  std::printf("\n");
+  std::printf(
+      "  frames %d (%d processed, %d dropped), keyframes %d, observations %d, objects in map %d\n",
+      r.frames, r.frames_processed, r.frames_dropped, r.keyframes, r.observations, r.objects);
   if (!r.objects_non_finite_ids.empty()) {
-    std::printf("  warning: %zu objects had non-finite estimates and were left out of map.json (ids:",
-                r.objects_non_finite_ids.size());
+    std::printf(
+        "  warning: %zu objects had non-finite estimates and were left out of map.json (ids:",
+        r.objects_non_finite_ids.size());
     for (int id : r.objects_non_finite_ids) std::printf(" %d", id);
     std::printf(")\n");
   }
-  std::printf("  back end per frame: median %.2f ms, p90 %.2f ms; finish %.1f ms\n", r.backend_ms.median,
-              r.backend_ms.p90, r.finish_ms);
-  std::printf("  %.2f s of data in %.2f s wall: %.1fx real time\n", r.duration_s, r.wall_s, r.realtime_factor);
-  std::printf("  wrote trajectory.tum, map.json, observations.csv, run.json to %s\n", args.request.out_dir.c_str());
+  if (!r.frontend_stages.empty()) {
+    std::printf("  front end per frame: median %.2f ms, p90 %.2f ms (", r.frontend_ms.median,
+                r.frontend_ms.p90);
+    for (size_t i = 0; i < r.frontend_stages.size(); ++i)
+      std::printf("%s%s %.2f", i ? ", " : "", r.frontend_stages[i].first.c_str(),
+                  r.frontend_stages[i].second.median);
+    std::printf("); detector ran on %d frames; objects started %d, re-identified %d, lost %d\n",
+                r.detector_runs, r.objects_started, r.objects_reidentified, r.objects_lost);
+  }
+  std::printf("  back end per frame: median %.2f ms, p90 %.2f ms; finish %.1f ms\n",
+              r.backend_ms.median, r.backend_ms.p90, r.finish_ms);
+  std::printf("  %.2f s of data in %.2f s wall: %.1fx real time\n", r.duration_s, r.wall_s,
+              r.realtime_factor);
+  std::printf("  wrote trajectory.tum, map.json, observations.csv, run.json to %s\n",
+              args.request.out_dir.c_str());
 }
 
 }  // namespace
 
 void AddRunCommand(CLI::App& root) {
   auto args = std::make_shared<RunArgs>();
-  auto* sub = root.add_subcommand(
-      "run",
-      "Run FSP-SLAM on a recording: INPUT is a EuRoC-layout folder (a rendered sequence is one). Writes\n"
-      "trajectory.tum, map.json, observations.csv and run.json to --out DIR. The front end gt-corners reads\n"
-      "a rendered sequence's ground-truth corners (observations_gt.csv) plus pixel noise from the config.");
-  sub->add_option("INPUT", args->request.source.input, "dataset folder (EuRoC layout: DIR/mav0 or mav0 itself)");
+  auto* sub = root.add_subcommand("run",
+                                  "Run FSP-SLAM on a recording: INPUT is a EuRoC-layout folder (a "
+                                  "rendered sequence is one). Writes\n"
+                                  "trajectory.tum, map.json, observations.csv and run.json to "
+                                  "--out DIR. The front end gt-corners reads\n"
+                                  "a rendered sequence's ground-truth corners "
+                                  "(observations_gt.csv) plus pixel noise from the config.");
+  sub->add_option("INPUT", args->request.source.input,
+                  "dataset folder (EuRoC layout: DIR/mav0 or mav0 itself)");
   sub->add_option("--out", args->request.out_dir, "output folder (created)");
   sub->add_option("--calib", args->request.source.calib,
-                  "calibration: EuRoC cam0/sensor.yaml, Kalibr camchain or fsp calib.yaml (overrides the folder's)");
-  sub->add_option("--imu", args->request.source.imu, "IMU csv t_ns,wx,wy,wz,ax,ay,az (overrides the folder's)");
-  sub->add_option("--config", args->config, "YAML configuration (assets/config/default.yaml lists every key)");
-  sub->add_option("--frontend", args->request.frontend, "front end")
-      ->check(CLI::IsMember({"gt-corners"}))
-      ->default_str("gt-corners");
-  sub->add_option("--landmarks", args->landmarks, "rectangle landmarks: fsp (8 DoF) or fhp (12 DoF baseline)")
+                  "calibration: EuRoC cam0/sensor.yaml, Kalibr camchain or fsp calib.yaml "
+                  "(overrides the folder's)");
+  sub->add_option("--imu", args->request.source.imu,
+                  "IMU csv t_ns,wx,wy,wz,ax,ay,az (overrides the folder's)");
+  sub->add_option("--config", args->config,
+                  "YAML configuration (assets/config/default.yaml lists every key)");
+  sub->add_option("--frontend", args->request.frontend,
+                  "front end: rect (rectangles + tag decoding), apriltag, or gt-corners (rendered "
+                  "sequences)")
+      ->check(CLI::IsMember({"rect", "apriltag", "gt-corners"}))
+      ->default_str("rect");
+  sub->add_option("--landmarks", args->landmarks,
+                  "rectangle landmarks: fsp (8 DoF) or fhp (12 DoF baseline)")
       ->check(CLI::IsMember({"fsp", "fhp"}));
-  sub->add_option("--mode", args->mode, "window (online sliding window) or batch (full problem, the reference)")
+  sub->add_option("--mode", args->mode,
+                  "window (online sliding window) or batch (full problem, the reference)")
       ->check(CLI::IsMember({"window", "batch"}));
-  sub->add_flag("--realtime", args->request.realtime,
-                "pace the input at its recorded rate and drop frames the pipeline cannot keep up with");
-  sub->add_option("--seed", args->seed, "seed of the front end's pixel noise (overrides the config)");
+  sub->add_flag(
+      "--realtime", args->request.realtime,
+      "pace the input at its recorded rate and drop frames the pipeline cannot keep up with");
+  sub->add_option("--seed", args->seed,
+                  "seed of the front end's pixel noise (overrides the config)");
   sub->add_flag("--print-config", args->print_config,
                 "print the configuration (defaults, or --config applied) as YAML and exit");
   sub->callback([args] { Run(*args); });

@@ -3,6 +3,8 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <map>
+#include <optional>
 #include <thread>
 
 #include "fsp/common/error.h"
@@ -10,6 +12,7 @@
 #include "fsp/common/progress.h"
 #include "fsp/common/time.h"
 #include "fsp/common/trajectory_io.h"
+#include "fsp/pipeline/system.h"
 #include "gt_corners.h"
 
 namespace fsp::apps {
@@ -47,26 +50,35 @@ const char* LandmarkName(backend::LandmarkType landmarks) {
 }
 
 RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
-  if (request.frontend != "gt-corners") {
-    throw InputError("--frontend " + request.frontend + ": not available yet (use gt-corners)");
-  }
+  const bool from_images = request.frontend != "gt-corners";
+  pipeline::SystemOptions system_options;
+  system_options.frontend = config.frontend;
+  if (from_images &&
+      !frontend::ParseDetectorKind(request.frontend, &system_options.frontend.detector))
+    throw InputError("--frontend " + request.frontend + ": unknown (rect, apriltag or gt-corners)");
   std::string why;
-  if (!config.estimator.Check(&why)) throw InputError((config.source.empty() ? "config" : config.source) + ": " + why);
+  if (!config.estimator.Check(&why))
+    throw InputError((config.source.empty() ? "config" : config.source) + ": " + why);
 
   namespace fs = std::filesystem;
-  if (!fs::exists(request.source.input)) throw InputError(request.source.input + ": INPUT not found");
+  if (!fs::exists(request.source.input))
+    throw InputError(request.source.input + ": INPUT not found");
   const Clock::time_point wall_start = Clock::now();
   SourceOptions source_options = request.source;
-  source_options.decode_images = false;  // gt-corners needs no pixels
-  // The front end first: a missing observations_gt.csv is the likelier mistake and its message the clearer.
-  GtCornersFrontend frontend(request.source.input, config.gt_corners);
+  source_options.decode_images = from_images;  // gt-corners needs no pixels
+  // The gt-corners front end first: a missing observations_gt.csv is the likelier mistake and its
+  // message the clearer.
+  std::optional<GtCornersFrontend> gt_corners;
+  if (!from_images) gt_corners.emplace(request.source.input, config.gt_corners);
   std::unique_ptr<Source> source = OpenSource(source_options);
 
   Calibration calibration = source->calibration();
   calibration.imu = config.imu.Apply(calibration.imu);
-  if (!calibration.Check(&why)) throw InputError((config.source.empty() ? "config" : config.source) + ": " + why);
-  backend::EstimatorOptions options = config.estimator;
-  options.imu.noise = calibration.imu;
+  if (!calibration.Check(&why))
+    throw InputError((config.source.empty() ? "config" : config.source) + ": " + why);
+  system_options.estimator = config.estimator;
+  system_options.estimator.imu.noise = calibration.imu;
+  const backend::EstimatorOptions& options = system_options.estimator;
 
   std::error_code ec;
   fs::create_directories(request.out_dir, ec);
@@ -80,22 +92,27 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   report.landmarks = LandmarkName(options.landmarks);
   report.config = config.source;
   report.realtime = request.realtime;
-  report.seed = config.gt_corners.seed;
-  report.pixel_sigma = config.gt_corners.pixel_sigma;
+  report.seed = from_images ? 0 : config.gt_corners.seed;
+  report.pixel_sigma = from_images ? 0.0 : config.gt_corners.pixel_sigma;
   const std::vector<int64_t>& frame_times = source->frame_times();
   report.frames = static_cast<int>(frame_times.size());
-  if (frame_times.size() >= 2) report.duration_s = NsToSeconds(frame_times.back() - frame_times.front());
+  if (frame_times.size() >= 2)
+    report.duration_s = NsToSeconds(frame_times.back() - frame_times.front());
 
-  backend::Estimator estimator(calibration, options);
+  pipeline::System slam(calibration, system_options);
   std::vector<double> frontend_ms, backend_ms;
+  std::map<std::string, std::vector<double>> stage_ms;
+  std::vector<std::string> stage_order;
   std::vector<CornerRow> produced;
-  const int64_t frame_period_ns =
-      frame_times.size() >= 2 ? (frame_times.back() - frame_times.front()) / static_cast<int64_t>(frame_times.size() - 1)
-                              : 0;
+  const int64_t frame_period_ns = frame_times.size() >= 2
+                                      ? (frame_times.back() - frame_times.front()) /
+                                            static_cast<int64_t>(frame_times.size() - 1)
+                                      : 0;
   std::optional<Pacer> pacer;
   if (request.realtime) {
-    const int64_t t_first = std::min(frame_times.empty() ? 0 : frame_times.front(),
-                                     source->imu().empty() ? frame_times.front() : source->imu().front().t_ns);
+    const int64_t t_first =
+        std::min(frame_times.empty() ? 0 : frame_times.front(),
+                 source->imu().empty() ? frame_times.front() : source->imu().front().t_ns);
     pacer.emplace(t_first);
   }
   std::unique_ptr<Progress> progress;
@@ -104,14 +121,15 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   while (std::optional<Measurement> m = source->Next()) {
     if (const ImuSample* imu = std::get_if<ImuSample>(&*m)) {
       if (pacer) pacer->WaitFor(imu->t_ns);
-      estimator.AddImu(*imu);
+      slam.AddImu(*imu);
       ++report.imu_samples;
       continue;
     }
     const Frame& frame = std::get<Frame>(*m);
     ++frames_seen;
     if (pacer) {
-      // A live camera has the next frame ready by Due(t + period): a frame still unprocessed then is lost.
+      // A live camera has the next frame ready by Due(t + period): a frame still unprocessed then
+      // is lost.
       if (Clock::now() > pacer->Due(frame.t_ns + frame_period_ns)) {
         ++report.frames_dropped;
         if (progress) progress->Update(frames_seen);
@@ -119,41 +137,58 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
       }
       pacer->WaitFor(frame.t_ns);
     }
-    Clock::time_point t0 = Clock::now();
-    const std::vector<ObjectObservation> observations = frontend.Process(frame.t_ns);
-    frontend_ms.push_back(MsSince(t0));
-    for (const ObjectObservation& o : observations) produced.push_back(ToCornerRow(o));
-    report.observations += static_cast<int>(observations.size());
-
-    t0 = Clock::now();
-    estimator.AddFrame(frame.t_ns, observations);
-    backend_ms.push_back(MsSince(t0));
+    pipeline::FrameOutput out;
+    if (gt_corners) {
+      const Clock::time_point t0 = Clock::now();
+      std::vector<ObjectObservation> observations = gt_corners->Process(frame.t_ns);
+      const double ms = MsSince(t0);
+      out = slam.AddObservations(frame.t_ns, observations);
+      out.frontend_ms = ms;
+    } else {
+      out = slam.AddFrame(frame);
+      for (const auto& [stage, ms] : out.frontend_times.ms) {
+        if (!stage_ms.count(stage)) stage_order.push_back(stage);
+        // The detector's time over the frames it ran on; the others over every frame.
+        if (stage != "detect" || out.detector_ran) stage_ms[stage].push_back(ms);
+      }
+      report.detector_runs += out.detector_ran;
+      report.objects_started += out.objects_started;
+      report.objects_reidentified += out.objects_reidentified;
+      report.objects_lost += out.objects_lost;
+    }
+    frontend_ms.push_back(out.frontend_ms);
+    backend_ms.push_back(out.backend_ms);
+    for (const ObjectObservation& o : out.observations) produced.push_back(ToCornerRow(o));
+    report.observations += static_cast<int>(out.observations.size());
     ++report.frames_processed;
     if (progress) progress->Update(frames_seen);
-    if (!estimator.summary().init_failure.empty()) break;  // nothing more can happen
+    if (!slam.summary().init_failure.empty()) break;  // nothing more can happen
   }
   const Clock::time_point t_finish = Clock::now();
-  estimator.Finish();
+  slam.Finish();
   report.finish_ms = MsSince(t_finish);
   progress.reset();  // ends the bar's line before anything else is printed
   report.wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
 
-  if (frontend.stats().rows > 0 && frontend.stats().frames_matched == 0 && report.frames_processed > 0) {
-    throw InputError(frontend.observations_path() +
+  if (gt_corners && gt_corners->stats().rows > 0 && gt_corners->stats().frames_matched == 0 &&
+      report.frames_processed > 0) {
+    throw InputError(gt_corners->observations_path() +
                      ": no row's t_ns matches a frame time of the input (a different sequence?)");
   }
 
-  report.summary = estimator.summary();
+  report.summary = slam.summary();
   report.keyframes = report.summary.keyframes;
   report.frontend_ms = ComputeStageStats(frontend_ms);
   report.backend_ms = ComputeStageStats(backend_ms);
+  for (const std::string& stage : stage_order)
+    report.frontend_stages.emplace_back(stage, ComputeStageStats(stage_ms[stage]));
   report.realtime_factor = report.wall_s > 0.0 ? report.duration_s / report.wall_s : 0.0;
 
   const fs::path out(request.out_dir);
-  // map.json holds finite numbers only: an object whose estimate is not finite (a back-end failure) is
-  // left out and counted.
+  // map.json holds finite numbers only: an object whose estimate is not finite (a back-end failure)
+  // is left out and counted.
   std::vector<backend::MapObject> map;
-  for (const backend::MapObject& o : estimator.Map()) {
+  for (const backend::MapObject& o : slam.Map()) {
     bool finite = std::isfinite(o.width) && std::isfinite(o.height) && o.T_W_O.Matrix().allFinite();
     for (const Vec3& c : o.corners_W) finite = finite && c.allFinite();
     if (finite) {
@@ -163,7 +198,7 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
     }
   }
   report.objects = static_cast<int>(map.size());
-  WriteTum(estimator.Trajectory(), (out / "trajectory.tum").string());
+  WriteTum(slam.Trajectory(), (out / "trajectory.tum").string());
   WriteJson(MapToJson(map), (out / "map.json").string());
   WriteCornerRows(produced, (out / "observations.csv").string(), /*with_flag=*/false);
   WriteJson(RunReportToJson(report), (out / "run.json").string());

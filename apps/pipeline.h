@@ -13,7 +13,7 @@ namespace fsp::apps {
 struct RunRequest {
   SourceOptions source;    // INPUT, --calib, --imu
   std::string out_dir;     // created when missing
-  std::string frontend = "gt-corners";
+  std::string frontend = "rect";  // rect | apriltag (from images) | gt-corners
   // Pace the input at its recorded rate and drop the frames the pipeline cannot keep up with (a frame is
   // dropped when the next one is already due by the time the pipeline is ready for it).
   bool realtime = false;

@@ -24,8 +24,8 @@ using backend::EstimatorMode;
 using backend::LandmarkType;
 using backend::RobustLossOptions;
 
-using FieldRef = std::variant<int*, double*, bool*, uint32_t*, EstimatorMode*, LandmarkType*,
-                              RobustLossOptions::Type*, std::optional<double>*>;
+using FieldRef = std::variant<int*, double*, bool*, uint32_t*, std::string*, EstimatorMode*,
+                              LandmarkType*, RobustLossOptions::Type*, std::optional<double>*>;
 
 // Accepted numeric range of a field: lo < x (lo_open) or lo <= x, and x <= hi.
 struct Range {
@@ -45,10 +45,11 @@ struct Field {
   Range range;
 };
 
-// The table of every config key, bound to the members of C. The order is the order of default.yaml and
-// of ToYaml. A new Options field needs one line here (and one in assets/config/default.yaml).
+// The table of every config key, bound to the members of C. The order is the order of default.yaml
+// and of ToYaml. A new Options field needs one line here (and one in assets/config/default.yaml).
 std::vector<Field> Fields(RunConfig& c) {
   backend::EstimatorOptions& e = c.estimator;
+  frontend::FrontEndOptions& f = c.frontend;
   return {
       {"estimator.mode", &e.mode, kAny},
       {"estimator.landmarks", &e.landmarks, kAny},
@@ -78,10 +79,10 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.robust.type", &e.robust.type, kAny},
       {"estimator.robust.k_sigma", &e.robust.k_sigma, kPositive},
       {"estimator.preintegration.gravity", &e.imu.gravity, kPositive},
-      {"estimator.preintegration.reintegrate_gyro_bias_threshold", &e.imu.reintegrate_gyro_bias_threshold,
-       kPositive},
-      {"estimator.preintegration.reintegrate_acc_bias_threshold", &e.imu.reintegrate_acc_bias_threshold,
-       kPositive},
+      {"estimator.preintegration.reintegrate_gyro_bias_threshold",
+       &e.imu.reintegrate_gyro_bias_threshold, kPositive},
+      {"estimator.preintegration.reintegrate_acc_bias_threshold",
+       &e.imu.reintegrate_acc_bias_threshold, kPositive},
       {"estimator.single_view_init.width_door_m", &e.init.width_door_m, kPositive},
       {"estimator.single_view_init.width_window_m", &e.init.width_window_m, kPositive},
       {"estimator.single_view_init.width_cabinet_m", &e.init.width_cabinet_m, kPositive},
@@ -94,19 +95,88 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.single_view_init.max_iterations", &e.init.max_iterations, kNonNegative},
       {"estimator.single_view_init.sigma_px", &e.init.sigma_px, kPositive},
       {"estimator.single_view_init.up_sigma_rad", &e.init.up_sigma_rad, kPositive},
-      {"estimator.single_view_init.min_triangle_area_px2", &e.init.min_triangle_area_px2, kNonNegative},
+      {"estimator.single_view_init.min_triangle_area_px2", &e.init.min_triangle_area_px2,
+       kNonNegative},
       {"imu.gyroscope_noise_density", &c.imu.gyroscope_noise_density, kPositive},
       {"imu.accelerometer_noise_density", &c.imu.accelerometer_noise_density, kPositive},
       {"imu.gyroscope_random_walk", &c.imu.gyroscope_random_walk, kPositive},
       {"imu.accelerometer_random_walk", &c.imu.accelerometer_random_walk, kPositive},
       {"frontend.gt_corners.pixel_sigma", &c.gt_corners.pixel_sigma, kNonNegative},
       {"frontend.gt_corners.seed", &c.gt_corners.seed, kAny},
+      {"frontend.detect_every", &f.detect_every, kNonNegative},
+      {"frontend.confirm_detections", &f.confirm_detections, kNonNegative},
+      {"frontend.match_gate_frac", &f.match_gate_frac, kNonNegative},
+      {"frontend.reid_min_similarity", &f.reid_min_similarity, kNonNegative},
+      {"frontend.reid_gate_frac", &f.reid_gate_frac, kNonNegative},
+      {"frontend.reid_min_similarity_predicted", &f.reid_min_similarity_predicted, kNonNegative},
+      {"frontend.tag_crop_margin_frac", &f.tag_crop_margin_frac, kNonNegative},
+      {"frontend.first_rect_id", &f.first_rect_id, kNonNegative},
+      {"frontend.rect.canny_noise_multiple", &f.rect.canny_noise_multiple, kNonNegative},
+      {"frontend.rect.min_edge_contrast", &f.rect.min_edge_contrast, kNonNegative},
+      {"frontend.rect.canny_low_ratio", &f.rect.canny_low_ratio, kNonNegative},
+      {"frontend.rect.min_segment_frac", &f.rect.min_segment_frac, kNonNegative},
+      {"frontend.rect.segment_fit_px", &f.rect.segment_fit_px, kNonNegative},
+      {"frontend.rect.merge_angle_deg", &f.rect.merge_angle_deg, kNonNegative},
+      {"frontend.rect.merge_line_px", &f.rect.merge_line_px, kNonNegative},
+      {"frontend.rect.merge_gap_frac", &f.rect.merge_gap_frac, kNonNegative},
+      {"frontend.rect.curved_step_deg", &f.rect.curved_step_deg, kNonNegative},
+      {"frontend.rect.curved_total_deg", &f.rect.curved_total_deg, kNonNegative},
+      {"frontend.rect.curved_min_frac", &f.rect.curved_min_frac, kNonNegative},
+      {"frontend.rect.curved_corner_frac", &f.rect.curved_corner_frac, kNonNegative},
+      {"frontend.rect.min_side_frac", &f.rect.min_side_frac, kNonNegative},
+      {"frontend.rect.min_corner_angle_deg", &f.rect.min_corner_angle_deg, kNonNegative},
+      {"frontend.rect.junction_gap_frac", &f.rect.junction_gap_frac, kNonNegative},
+      {"frontend.rect.junction_overshoot_frac", &f.rect.junction_overshoot_frac, kNonNegative},
+      {"frontend.rect.junction_slack_px", &f.rect.junction_slack_px, kNonNegative},
+      {"frontend.rect.max_hypotheses", &f.rect.max_hypotheses, kNonNegative},
+      {"frontend.rect.search_px", &f.rect.search_px, kNonNegative},
+      {"frontend.rect.polarity_from_segment", &f.rect.polarity_from_segment, kAny},
+      {"frontend.rect.search_step_px", &f.rect.search_step_px, kNonNegative},
+      {"frontend.rect.samples_per_side", &f.rect.samples_per_side, kNonNegative},
+      {"frontend.rect.corner_margin_frac", &f.rect.corner_margin_frac, kNonNegative},
+      {"frontend.rect.ransac_inlier_px", &f.rect.ransac_inlier_px, kNonNegative},
+      {"frontend.rect.ransac_iterations", &f.rect.ransac_iterations, kNonNegative},
+      {"frontend.rect.seed", &f.rect.seed, kAny},
+      {"frontend.rect.bend_px", &f.rect.bend_px, kNonNegative},
+      {"frontend.rect.min_side_support", &f.rect.min_side_support, kNonNegative},
+      {"frontend.rect.max_side_continuation", &f.rect.max_side_continuation, kNonNegative},
+      {"frontend.rect.continuation_start_px", &f.rect.continuation_start_px, kNonNegative},
+      {"frontend.rect.continuation_frac", &f.rect.continuation_frac, kNonNegative},
+      {"frontend.rect.continuation_step_px", &f.rect.continuation_step_px, kNonNegative},
+      {"frontend.rect.min_corner_reach", &f.rect.min_corner_reach, kNonNegative},
+      {"frontend.rect.reach_start_px", &f.rect.reach_start_px, kNonNegative},
+      {"frontend.rect.reach_min_px", &f.rect.reach_min_px, kNonNegative},
+      {"frontend.rect.reach_frac", &f.rect.reach_frac, kNonNegative},
+      {"frontend.rect.max_abs_cos", &f.rect.max_abs_cos, kNonNegative},
+      {"frontend.rect.max_aspect", &f.rect.max_aspect, kNonNegative},
+      {"frontend.rect.assumed_hfov_deg", &f.rect.assumed_hfov_deg, kNonNegative},
+      {"frontend.rect.max_corner_outside_px", &f.rect.max_corner_outside_px, kNonNegative},
+      {"frontend.rect.container_outside_frac", &f.rect.container_outside_frac, kNonNegative},
+      {"frontend.rect.guess_class", &f.rect.guess_class, kAny},
+      {"frontend.rect.duplicate_corner_frac", &f.rect.duplicate_corner_frac, kNonNegative},
+      {"frontend.rect.nest_corner_frac", &f.rect.nest_corner_frac, kNonNegative},
+      {"frontend.rect.nest_score_margin", &f.rect.nest_score_margin, kNonNegative},
+      {"frontend.rect.prefer_inner_of_bright_margin", &f.rect.prefer_inner_of_bright_margin, kAny},
+      {"frontend.rect.margin_min_contrast", &f.rect.margin_min_contrast, kNonNegative},
+      {"frontend.rect.margin_max_texture", &f.rect.margin_max_texture, kNonNegative},
+      {"frontend.rect.margin_min_width_px", &f.rect.margin_min_width_px, kNonNegative},
+      {"frontend.rect.margin_probe_frac", &f.rect.margin_probe_frac, kNonNegative},
+      {"frontend.rect.drop_contained", &f.rect.drop_contained, kAny},
+      {"frontend.rect.max_detections", &f.rect.max_detections, kNonNegative},
+      {"frontend.apriltag.family", &f.apriltag.family, kAny},
+      {"frontend.apriltag.decimate", &f.apriltag.decimate, kNonNegative},
+      {"frontend.apriltag.sigma", &f.apriltag.sigma, kNonNegative},
+      {"frontend.apriltag.refine_edges", &f.apriltag.refine_edges, kAny},
+      {"frontend.apriltag.decode_sharpening", &f.apriltag.decode_sharpening, kNonNegative},
+      {"frontend.apriltag.threads", &f.apriltag.threads, kNonNegative},
+      {"frontend.apriltag.max_hamming", &f.apriltag.max_hamming, kNonNegative},
+      {"frontend.apriltag.min_decision_margin", &f.apriltag.min_decision_margin, kNonNegative},
   };
 }
 
 // Names of the enum values as written in the file.
-const std::vector<std::pair<EstimatorMode, const char*>> kModes = {{EstimatorMode::kWindow, "window"},
-                                                                   {EstimatorMode::kBatch, "batch"}};
+const std::vector<std::pair<EstimatorMode, const char*>> kModes = {
+    {EstimatorMode::kWindow, "window"}, {EstimatorMode::kBatch, "batch"}};
 const std::vector<std::pair<LandmarkType, const char*>> kLandmarks = {{LandmarkType::kFsp, "fsp"},
                                                                       {LandmarkType::kFhp, "fhp"}};
 const std::vector<std::pair<RobustLossOptions::Type, const char*>> kLosses = {
@@ -144,6 +214,8 @@ std::string FormatValue(const FieldRef& ref) {
           return FormatDouble(*p);
         } else if constexpr (std::is_same_v<T, bool>) {
           return *p ? "true" : "false";
+        } else if constexpr (std::is_same_v<T, std::string>) {
+          return *p;
         } else if constexpr (std::is_same_v<T, std::optional<double>>) {
           return p->has_value() ? FormatDouble(**p) : "null";
         } else {
@@ -168,12 +240,14 @@ class ConfigParser {
 
   void ParseRoot(const YAML::Node& root) {
     if (!root || root.IsNull()) return;  // an empty file: all defaults
-    if (!root.IsMap()) Fail(root, "", "the config must be a map of sections (estimator, imu, frontend)");
+    if (!root.IsMap())
+      Fail(root, "", "the config must be a map of sections (estimator, imu, frontend)");
     ParseSection(root, "");
   }
 
  private:
-  [[noreturn]] void Fail(const YAML::Node& node, const std::string& key, const std::string& what) const {
+  [[noreturn]] void Fail(const YAML::Node& node, const std::string& key,
+                         const std::string& what) const {
     const int line = node.Mark().is_null() ? 0 : node.Mark().line + 1;
     throw InputError(name_, line, key.empty() ? what : key + ": " + what);
   }
@@ -207,8 +281,9 @@ class ConfigParser {
       names.insert(rest.substr(0, rest.find('.')));
     }
     for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
-    return known.empty() ? std::string() : " (known keys" + (prefix.empty() ? std::string() : " in " + prefix) +
-                                               ": " + known + ")";
+    return known.empty() ? std::string()
+                         : " (known keys" + (prefix.empty() ? std::string() : " in " + prefix) +
+                               ": " + known + ")";
   }
 
   double ParseNumber(const Field& f, const YAML::Node& node, bool integer) const {
@@ -264,6 +339,9 @@ class ConfigParser {
             } else {
               *p = ParseNumber(f, node, false);
             }
+          } else if constexpr (std::is_same_v<T, std::string>) {
+            if (!node.IsScalar() || node.Scalar().empty()) Fail(node, f.key, "expected a name");
+            *p = node.Scalar();
           } else if constexpr (std::is_same_v<T, bool>) {
             const std::string s = node.IsScalar() ? node.Scalar() : "";
             if (s == "true") {
@@ -330,7 +408,9 @@ RunConfig ParseRunConfig(const std::string& yaml_text, const std::string& name) 
     throw InputError(name, e.mark.is_null() ? 0 : e.mark.line + 1, e.msg);
   }
   std::string why;
-  if (!config.gt_corners.Check(&why) || !config.estimator.Check(&why)) throw InputError(name, 0, why);
+  if (!config.gt_corners.Check(&why) || !config.estimator.Check(&why))
+    throw InputError(name, 0, why);
+  if (!config.frontend.Check(&why)) throw InputError(name, 0, "frontend: " + why);
   return config;
 }
 
@@ -371,13 +451,15 @@ std::string ToYaml(const RunConfig& config) {
     std::stringstream ks(f.key);
     for (std::string part; std::getline(ks, part, '.');) parts.push_back(part);
     size_t common = 0;
-    while (common < open.size() && common + 1 < parts.size() && open[common] == parts[common]) ++common;
+    while (common < open.size() && common + 1 < parts.size() && open[common] == parts[common])
+      ++common;
     open.resize(common);
     for (size_t i = common; i + 1 < parts.size(); ++i) {
       os << std::string(2 * i, ' ') << parts[i] << ":\n";
       open.push_back(parts[i]);
     }
-    os << std::string(2 * (parts.size() - 1), ' ') << parts.back() << ": " << FormatValue(f.ref) << "\n";
+    os << std::string(2 * (parts.size() - 1), ' ') << parts.back() << ": " << FormatValue(f.ref)
+       << "\n";
   }
   return os.str();
 }

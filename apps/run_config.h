@@ -1,7 +1,8 @@
-// The configuration of `fsp run` (a YAML file, --config): estimator options, IMU noise overrides and
-// front-end options. assets/config/default.yaml lists every key with its default and a comment; the
-// defaults themselves come from the C++ Options structs (one source of truth): a key absent from the
-// file keeps the struct's default, and a test checks that default.yaml parses to the default structs.
+// The configuration of `fsp run` (a YAML file, --config): estimator options, IMU noise overrides
+// and front-end options. assets/config/default.yaml lists every key with its default and a comment;
+// the defaults themselves come from the C++ Options structs (one source of truth): a key absent
+// from the file keeps the struct's default, and a test checks that default.yaml parses to the
+// default structs.
 //
 //   estimator:            # fsp::backend::EstimatorOptions (estimator.h)
 //     static_init: {...}  # StaticInitOptions
@@ -10,11 +11,16 @@
 //     robust: {...}       # RobustLossOptions (type: none | huber | cauchy)
 //     preintegration: {...}     # PreintegrationOptions (gravity, re-integration thresholds)
 //     single_view_init: {...}   # SingleViewInitOptions
-//   imu:                  # overrides of the calibration's IMU noise densities; null = keep the calibration's
-//   frontend:
+//   imu:                  # overrides of the calibration's IMU noise densities; null = keep the
+//   calibration's frontend:
 //     gt_corners: {pixel_sigma, seed}
+//     detect_every, confirm_detections, ...   # fsp::frontend::FrontEndOptions (frontend.h)
+//     rect: {...}         # RectDetectorOptions
+//     apriltag: {...}     # AprilTagDetectorOptions
+//     tracker: {...}      # ObjectTrackerOptions
 //
-// An unknown key, a value of the wrong type or out of range throws InputError("FILE:LINE: KEY: what").
+// An unknown key, a value of the wrong type or out of range throws InputError("FILE:LINE: KEY:
+// what").
 #pragma once
 
 #include <cstdint>
@@ -24,13 +30,15 @@
 
 #include "fsp/backend/estimator.h"
 #include "fsp/common/calibration.h"
+#include "fsp/frontend/frontend.h"
 
 namespace fsp::apps {
 
-// The gt-corners front end: ground-truth corner projections of a rendered sequence plus pixel noise.
+// The gt-corners front end: ground-truth corner projections of a rendered sequence plus pixel
+// noise.
 struct GtCornersOptions {
-  // Standard deviation of the Gaussian noise added to each corner coordinate [px]. 0 gives the exact
-  // projections (the paper's noise-free experiment); 1 px is a good detector.
+  // Standard deviation of the Gaussian noise added to each corner coordinate [px]. 0 gives the
+  // exact projections (the paper's noise-free experiment); 1 px is a good detector.
   double pixel_sigma = 1.0;
   // Seed of the noise generator (std::mt19937); the same seed gives the same noisy corners.
   uint32_t seed = 1;
@@ -52,6 +60,8 @@ struct RunConfig {
   backend::EstimatorOptions estimator;
   ImuNoiseOverrides imu;
   GtCornersOptions gt_corners;
+  frontend::FrontEndOptions
+      frontend;        // --frontend rect | apriltag (the detector kind comes from the flag)
   std::string source;  // the file it was read from; empty for the built-in defaults
 };
 
@@ -65,8 +75,8 @@ RunConfig ParseRunConfig(const std::string& yaml_text, const std::string& name);
 std::vector<std::string> RunConfigKeys();
 // Whether every key has the same value in A and B (doubles compared exactly).
 bool SameValues(const RunConfig& a, const RunConfig& b, std::string* first_difference = nullptr);
-// The config as YAML, one "key: value" per line under its sections (values exact: doubles in shortest
-// round-trip form). Parsing it gives back the same values.
+// The config as YAML, one "key: value" per line under its sections (values exact: doubles in
+// shortest round-trip form). Parsing it gives back the same values.
 std::string ToYaml(const RunConfig& config);
 
 }  // namespace fsp::apps

@@ -22,7 +22,8 @@ double Quantile(const std::vector<double>& sorted, double q) {
 }
 
 nlohmann::ordered_json StatsJson(const StageStats& s) {
-  return {{"median", s.median}, {"p90", s.p90}, {"mean", s.mean}, {"max", s.max}, {"count", s.count}};
+  return {
+      {"median", s.median}, {"p90", s.p90}, {"mean", s.mean}, {"max", s.max}, {"count", s.count}};
 }
 
 }  // namespace
@@ -52,8 +53,10 @@ nlohmann::ordered_json MapToJson(const std::vector<backend::MapObject>& objects)
     j["corners_W"] = corners;
     j["width"] = o.width;
     j["height"] = o.height;
-    j["width_sigma"] = o.width_sigma >= 0.0 ? nlohmann::ordered_json(o.width_sigma) : nlohmann::ordered_json();
-    j["height_sigma"] = o.height_sigma >= 0.0 ? nlohmann::ordered_json(o.height_sigma) : nlohmann::ordered_json();
+    j["width_sigma"] =
+        o.width_sigma >= 0.0 ? nlohmann::ordered_json(o.width_sigma) : nlohmann::ordered_json();
+    j["height_sigma"] =
+        o.height_sigma >= 0.0 ? nlohmann::ordered_json(o.height_sigma) : nlohmann::ordered_json();
     const Mat4 M = o.T_W_O.Matrix();
     nlohmann::ordered_json t = nlohmann::ordered_json::array();
     for (int r = 0; r < 4; ++r)
@@ -74,8 +77,10 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
   j["objects"] = r.objects;
   j["wall_s"] = r.wall_s;
   j["realtime_factor"] = r.realtime_factor;
-  j["stage_ms"] = {{"frontend", StatsJson(r.frontend_ms)}, {"backend", StatsJson(r.backend_ms)},
+  j["stage_ms"] = {{"frontend", StatsJson(r.frontend_ms)},
+                   {"backend", StatsJson(r.backend_ms)},
                    {"finish", r.finish_ms}};
+  for (const auto& [stage, stats] : r.frontend_stages) j["stage_ms"][stage] = StatsJson(stats);
   j["duration_s"] = r.duration_s;
   j["frames_processed"] = r.frames_processed;
   j["frames_dropped"] = r.frames_dropped;
@@ -90,6 +95,11 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
   j["seed"] = r.seed;
   j["pixel_sigma"] = r.pixel_sigma;
   j["config"] = r.config.empty() ? "defaults" : r.config;
+  if (!r.frontend_stages.empty())
+    j["tracking"] = {{"detector_runs", r.detector_runs},
+                     {"objects_started", r.objects_started},
+                     {"objects_reidentified", r.objects_reidentified},
+                     {"objects_lost", r.objects_lost}};
   const backend::EstimatorSummary& s = r.summary;
   j["estimator"] = {{"initialized", s.initialized},
                     {"init_failure", s.init_failure},

@@ -1,9 +1,10 @@
-// Writers of a run's output folder (CONTRACT.md "Run output"): map.json and run.json, plus the timing
-// statistics they report. trajectory.tum and observations.csv use the common writers (WriteTum,
-// WriteCornerRows).
+// Writers of a run's output folder (CONTRACT.md "Run output"): map.json and run.json, plus the
+// timing statistics they report. trajectory.tum and observations.csv use the common writers
+// (WriteTum, WriteCornerRows).
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -30,14 +31,19 @@ struct RunReport {
   int frames_dropped = 0;    // --realtime: frames the pipeline could not keep up with
   int imu_samples = 0;
   int keyframes = 0;
-  int objects = 0;           // objects in map.json
-  std::vector<int> objects_non_finite_ids;  // objects the estimator returned with non-finite values (left out)
-  int observations = 0;      // object observations produced by the front end (processed frames)
-  double duration_s = 0.0;   // sequence span, first to last frame [s]
-  double wall_s = 0.0;       // wall time of reading + front end + back end + finish [s]
+  int objects = 0;  // objects in map.json
+  std::vector<int>
+      objects_non_finite_ids;    // objects the estimator returned with non-finite values (left out)
+  int observations = 0;          // object observations produced by the front end (processed frames)
+  double duration_s = 0.0;       // sequence span, first to last frame [s]
+  double wall_s = 0.0;           // wall time of reading + front end + back end + finish [s]
   double realtime_factor = 0.0;  // duration_s / wall_s
-  double finish_ms = 0.0;    // Estimator::Finish (final window solve or the batch solve) [ms]
+  double finish_ms = 0.0;        // Estimator::Finish (final window solve or the batch solve) [ms]
   StageStats frontend_ms, backend_ms;  // per processed frame
+  // Front end from images: per-stage time ("track", "detect" over the frames it ran on,
+  // "associate") and its object lifecycle counts.
+  std::vector<std::pair<std::string, StageStats>> frontend_stages;
+  int detector_runs = 0, objects_started = 0, objects_reidentified = 0, objects_lost = 0;
   std::string input, frontend, mode, landmarks, config;
   bool realtime = false;
   uint32_t seed = 0;
@@ -45,8 +51,8 @@ struct RunReport {
   backend::EstimatorSummary summary;
 };
 
-// {"objects": [{"id", "class", "corners_W", "width", "height", "width_sigma", "height_sigma", "T_W_O" (16,
-// row-major), "observations"}]}; an unknown σ (negative) is written as null.
+// {"objects": [{"id", "class", "corners_W", "width", "height", "width_sigma", "height_sigma",
+// "T_W_O" (16, row-major), "observations"}]}; an unknown σ (negative) is written as null.
 nlohmann::ordered_json MapToJson(const std::vector<backend::MapObject>& objects);
 nlohmann::ordered_json RunReportToJson(const RunReport& report);
 

@@ -3,7 +3,10 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <opencv2/core/mat.hpp>
 
@@ -18,8 +21,8 @@ struct ImuSample {
   Vec3 acc = Vec3::Zero();
 };
 
-// One camera image. `image` is 8-bit grey (CV_8UC1); `source` names where it came from (a file path,
-// or "video.mp4#frame=12") for error messages.
+// One camera image. `image` is 8-bit grey (CV_8UC1); `source` names where it came from (a file
+// path, or "video.mp4#frame=12") for error messages.
 struct Frame {
   int64_t t_ns = 0;
   int index = 0;
@@ -42,14 +45,15 @@ struct StampedPose {
   Rigid3 T_W_B;
 };
 
-// Four image corners of one rectangle in s1..s4 order (bottom-left, bottom-right, top-right, top-left
-// for an upright object seen from the front).
+// Four image corners of one rectangle in s1..s4 order (bottom-left, bottom-right, top-right,
+// top-left for an upright object seen from the front).
 using Corners = std::array<Vec2, 4>;
 
 // Object classes the front end can name. kUnknown is a rectangle without a class guess.
 enum class ObjectClass { kUnknown, kDoor, kWindow, kCabinet, kPoster, kTag };
 const char* ToString(ObjectClass c);
-// Parses "door", "window", "cabinet", "poster" (also "painting"), "tag", "unknown"; false otherwise.
+// Parses "door", "window", "cabinet", "poster" (also "painting"), "tag", "unknown"; false
+// otherwise.
 bool ParseObjectClass(const std::string& name, ObjectClass* c);
 
 // What the front end hands to the back end for one object in one frame.
@@ -57,8 +61,22 @@ struct ObjectObservation {
   int64_t t_ns = 0;
   int object_id = -1;
   ObjectClass object_class = ObjectClass::kUnknown;
-  Corners corners;           // UNDISTORTED pixels, s1..s4 order
-  double score = 1.0;        // detector/tracker confidence in [0, 1]
+  Corners corners;     // UNDISTORTED pixels, s1..s4 order
+  double score = 1.0;  // detector/tracker confidence in [0, 1]
+};
+
+// What the back end and the IMU expect of the next frame, handed to the front end (the front end
+// and the back end never include each other; this plain type is how predictions flow back).
+struct FramePrediction {
+  // Rotation of the camera since the previous frame, R_Cprev_Ccur (from the gyroscope); absent when
+  // unknown. Lets the tracker predict each object's corners through the infinite homography
+  // K R_Ccur_Cprev K^-1.
+  std::optional<Mat3> R_Cprev_Ccur;
+  // Gravity direction in the current camera frame (any length); absent before initialisation.
+  // Orders the corners of new rectangles (s1 bottom-left).
+  std::optional<Vec3> gravity_C;
+  // Predicted corners (undistorted px, s1..s4) of map objects expected in view, by object id.
+  std::vector<std::pair<int, Corners>> objects;
 };
 
 }  // namespace fsp

@@ -1,0 +1,112 @@
+// The front end as one component: images in, object observations (undistorted corners, object id,
+// class, score) out. Per frame:
+//  1. track: every live object is tracked into the frame (ObjectTracker), its corners predicted
+//     through the gyroscope's rotation since the previous frame when the caller knows it;
+//  2. detect where needed: the detector (rectangles, AprilTags, or rectangles with AprilTag
+//  decoding
+//     of the tag-like ones) runs every `detect_every` frames, and on every frame while an object is
+//     waiting for confirmation or a track was just lost;
+//  3. associate: each detection is matched to a live track by corner distance (a tag by its id); an
+//     unmatched detection is compared with the dormant objects (gone from view) by appearance and,
+//     where the back end predicts map objects in view, by geometry: a match resumes the old object
+//     under its old id (re-identification); otherwise it starts a candidate, which becomes an
+//     object (and produces observations) only once detected again in `confirm_detections` detection
+//     runs while tracked in between. A candidate lost before that is forgotten; a lost object goes
+//     dormant.
+//  4. emit: one observation per confirmed object tracked in this frame.
+//
+// Identities: an AprilTag's id is its object id; plain rectangles get ids from `first_rect_id` up,
+// never reused. Classes: the most frequent class guess of an object's detections.
+// Deterministic for the same frames and predictions. Not thread-safe.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fsp/common/camera.h"
+#include "fsp/common/types.h"
+#include "fsp/frontend/apriltag_detector.h"
+#include "fsp/frontend/detection.h"
+#include "fsp/frontend/object_tracker.h"
+#include "fsp/frontend/rect_detector.h"
+
+namespace fsp::frontend {
+
+enum class DetectorKind {
+  kRect,      // rectangles; tag-like ones decoded as AprilTags (then the tag id is the identity)
+  kAprilTag,  // AprilTags only
+};
+const char* ToString(DetectorKind kind);  // "rect", "apriltag"
+bool ParseDetectorKind(const std::string& name, DetectorKind* kind);
+
+struct FrontEndOptions {
+  DetectorKind detector = DetectorKind::kRect;
+  // Run the detector every this many frames when all is quiet [frames]. 1: every frame (most
+  // robust, ~4 ms per 640x480 frame); larger: cheaper, new objects are picked up later.
+  int detect_every = 3;
+  // A new object is confirmed (and reported) once detected in this many detection runs while being
+  // tracked in between. Higher: fewer false objects from stray detections, a later start.
+  int confirm_detections = 2;
+  // A detection matches a live track when their mean corner distance (best cyclic shift) is below
+  // this fraction of the track's shortest side (at least 3 px). Larger tolerates worse tracks but
+  // can steal a neighbour's detection.
+  double match_gate_frac = 0.15;
+  // Re-identification: least appearance similarity (NCC, see ObjectTracker::Similarity) of a new
+  // detection with a dormant object for it to be that object again [-1, 1]. Lower re-identifies
+  // more readily, at the risk of two look-alike objects (a row of identical doors) being merged.
+  double reid_min_similarity = 0.6;
+  // ...and when the back end predicts the dormant object in view: the largest mean corner distance
+  // from that prediction [fraction of the predicted quad's shortest side] for a match on geometry,
+  // which then needs only `reid_min_similarity_predicted`.
+  double reid_gate_frac = 0.5;
+  double reid_min_similarity_predicted = 0.3;
+  // AprilTag decoding of tag-like rectangles (DetectorKind::kRect): the crop around the rectangle
+  // passed to the AprilTag detector extends past its bounding box by this fraction of its size.
+  double tag_crop_margin_frac = 0.3;
+  // Ids of plain rectangles start here (AprilTags keep their ids, tag36h11 has 587: 0..586).
+  int first_rect_id = 1000;
+  RectDetectorOptions rect;
+  AprilTagDetectorOptions apriltag;
+  ObjectTrackerOptions tracker;
+  bool Check(std::string* why) const;
+};
+
+struct FrontEndResult {
+  std::vector<ObjectObservation> observations;  // confirmed objects tracked in this frame
+  StageTimes times;                             // "track", "detect", "associate"
+  bool detected = false;                        // the detector ran on this frame
+  int detections = 0;
+  int candidates = 0;    // unconfirmed objects being tracked after this frame
+  int started = 0;       // objects confirmed in this frame
+  int reidentified = 0;  // dormant objects resumed in this frame
+  int lost = 0;          // objects lost in this frame
+};
+
+class FrontEnd {
+ public:
+  using Options = FrontEndOptions;
+
+  // `camera`: calibration of every frame (undistortion of the output; the sizes must match). Throws
+  // InputError for an unknown AprilTag family; FSP_CHECKs the other options (check them first).
+  FrontEnd(const PinholeRadtan& camera, Options options = Options());
+  ~FrontEnd();
+  FrontEnd(const FrontEnd&) = delete;
+  FrontEnd& operator=(const FrontEnd&) = delete;
+
+  // One frame (8-bit grey, the calibration's size; InputError otherwise) and what the caller
+  // predicts for it. Frames in time order.
+  FrontEndResult Process(const Frame& frame, const FramePrediction& prediction = {});
+
+  // Class of an object (the most frequent guess so far), kUnknown for an unknown id.
+  ObjectClass ClassOf(int object_id) const;
+  const Options& options() const { return options_; }
+
+ private:
+  struct Impl;
+  Options options_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace fsp::frontend

@@ -1,0 +1,385 @@
+#include "fsp/frontend/frontend.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include <opencv2/core.hpp>
+
+#include "fsp/common/error.h"
+#include "fsp/frontend/rect_geometry.h"
+
+namespace fsp::frontend {
+
+const char* ToString(DetectorKind kind) {
+  return kind == DetectorKind::kAprilTag ? "apriltag" : "rect";
+}
+
+bool ParseDetectorKind(const std::string& name, DetectorKind* kind) {
+  if (name == "rect") {
+    *kind = DetectorKind::kRect;
+  } else if (name == "apriltag") {
+    *kind = DetectorKind::kAprilTag;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+bool FrontEndOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& what) {
+    *why = what;
+    return false;
+  };
+  if (detect_every < 1) return fail("detect_every must be >= 1");
+  if (confirm_detections < 1) return fail("confirm_detections must be >= 1");
+  if (!(match_gate_frac > 0.0)) return fail("match_gate_frac must be > 0");
+  if (!(reid_gate_frac > 0.0)) return fail("reid_gate_frac must be > 0");
+  if (!(reid_min_similarity >= -1.0 && reid_min_similarity <= 1.0))
+    return fail("reid_min_similarity must be in [-1, 1]");
+  if (!(reid_min_similarity_predicted >= -1.0 && reid_min_similarity_predicted <= 1.0))
+    return fail("reid_min_similarity_predicted must be in [-1, 1]");
+  if (!(tag_crop_margin_frac >= 0.0)) return fail("tag_crop_margin_frac must be >= 0");
+  if (first_rect_id < 0) return fail("first_rect_id must be >= 0");
+  std::string sub;
+  if (!rect.Check(&sub)) return fail("rect: " + sub);
+  if (!apriltag.Check(&sub)) return fail("apriltag: " + sub);
+  if (!tracker.Check(&sub)) return fail("tracker: " + sub);
+  return true;
+}
+
+namespace {
+
+// Mean distance between corresponding corners after the best cyclic shift of B's order [px].
+double MeanCornerDistance(const Corners& a, const Corners& b, int* best_shift = nullptr) {
+  double best = std::numeric_limits<double>::infinity();
+  for (int r = 0; r < 4; ++r) {
+    double sum = 0.0;
+    for (int j = 0; j < 4; ++j) sum += (a[j] - b[(j + r) % 4]).norm();
+    if (sum < best) {
+      best = sum;
+      if (best_shift) *best_shift = r;
+    }
+  }
+  return 0.25 * best;
+}
+
+Corners Shifted(const Corners& c, int r) {
+  Corners out;
+  for (int j = 0; j < 4; ++j) out[j] = c[(j + r) % 4];
+  return out;
+}
+
+Vec2 Centroid(const Corners& c) {
+  return 0.25 * (c[0] + c[1] + c[2] + c[3]);
+}
+
+// x_cur ~ K R_Ccur_Cprev K^-1 x_prev: where a pixel of the previous frame appears after a pure
+// rotation of the camera (the infinite homography; exact for distant points, a prediction for near
+// ones).
+Corners RotateCorners(const Corners& c, const Mat3& K, const Mat3& R_Cprev_Ccur) {
+  const Mat3 H = K * R_Cprev_Ccur.transpose() * K.inverse();
+  Corners out;
+  for (int j = 0; j < 4; ++j) {
+    const Vec3 x = H * Vec3(c[j].x(), c[j].y(), 1.0);
+    out[j] = x.z() > 1e-9 ? Vec2(x.head<2>() / x.z()) : c[j];
+  }
+  return out;
+}
+
+struct ObjectInfo {
+  bool confirmed = false;
+  bool active = false;
+  int detections = 0;  // detection runs that matched it
+  std::map<ObjectClass, int> class_votes;
+  Corners last;  // last tracked corners (undistorted px)
+
+  ObjectClass Class() const {
+    ObjectClass best = ObjectClass::kUnknown;
+    int best_n = 0;
+    for (const auto& [c, n] : class_votes)
+      if (n > best_n) {
+        best = c;
+        best_n = n;
+      }
+    return best;
+  }
+};
+
+}  // namespace
+
+struct FrontEnd::Impl {
+  PinholeRadtan camera;
+  Mat3 K;
+  RectDetector rect;
+  AprilTagDetector tags;   // full frames (kAprilTag)
+  AprilTagDetector crops;  // tag-like rectangles (kRect): small crops, decimate 1
+  ObjectTracker tracker;
+  std::map<int, ObjectInfo> objects;
+  int next_rect_id = 0;
+  int frame_index = 0;
+  int last_detect_frame = -1000000;
+  bool lost_last_frame = false;
+
+  Impl(const PinholeRadtan& cam, const FrontEndOptions& o)
+      : camera(cam),
+        K(cam.K()),
+        rect(o.rect),
+        tags(o.apriltag),
+        crops([&] {
+          AprilTagDetectorOptions c = o.apriltag;
+          c.decimate = 1.0;
+          return c;
+        }()),
+        tracker(cam, o.tracker),
+        next_rect_id(o.first_rect_id) {}
+
+  // AprilTag decoding of the tag-like rectangles: the crop around each is given to the AprilTag
+  // detector, and a decoded tag whose corners match the rectangle's replaces it (with its id and
+  // the tag's own corner order).
+  void DecodeTags(const cv::Mat& gray, const FrontEndOptions& o, std::vector<Detection>* dets) {
+    for (Detection& d : *dets) {
+      if (d.object_class != ObjectClass::kTag || d.tag_id >= 0) continue;
+      double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+      for (const Vec2& c : d.corners_px) {
+        x0 = std::min(x0, c.x());
+        y0 = std::min(y0, c.y());
+        x1 = std::max(x1, c.x());
+        y1 = std::max(y1, c.y());
+      }
+      const double m = o.tag_crop_margin_frac * std::max(x1 - x0, y1 - y0) + 4.0;
+      const cv::Rect roi = cv::Rect(cv::Point(static_cast<int>(std::floor(x0 - m)),
+                                              static_cast<int>(std::floor(y0 - m))),
+                                    cv::Point(static_cast<int>(std::ceil(x1 + m)) + 1,
+                                              static_cast<int>(std::ceil(y1 + m)) + 1)) &
+                           cv::Rect(0, 0, gray.cols, gray.rows);
+      if (roi.width < 8 || roi.height < 8) continue;
+      const AprilTagDetector::Result r = crops.Detect(gray(roi).clone());
+      const double gate = std::max(3.0, o.match_gate_frac * ShortestSide(d.corners_px));
+      for (const Detection& t : r.detections) {
+        Corners px = t.corners_px;
+        for (Vec2& c : px) c += Vec2(roi.x, roi.y);
+        if (MeanCornerDistance(d.corners_px, px) > gate) continue;
+        d.tag_id = t.tag_id;
+        d.corners_px = px;
+        for (int j = 0; j < 4; ++j) d.corners_undistorted[j] = camera.UndistortPixel(px[j]);
+        d.score = t.score;
+        break;
+      }
+    }
+  }
+
+  std::vector<Detection> Detect(const cv::Mat& gray, const FramePrediction& prediction,
+                                const FrontEndOptions& o) {
+    if (o.detector == DetectorKind::kAprilTag) return tags.Detect(gray, &camera).detections;
+    const Vec3* gravity = prediction.gravity_C ? &*prediction.gravity_C : nullptr;
+    std::vector<Detection> dets = rect.Detect(gray, &camera, gravity).detections;
+    DecodeTags(gray, o, &dets);
+    return dets;
+  }
+
+  // A dormant object that detection D is a view of, with the corner order that fits it; -1 if none.
+  int Reidentify(const cv::Mat& gray, const Detection& d, const FramePrediction& prediction,
+                 const FrontEndOptions& o, Corners* corners) const {
+    int best_id = -1;
+    double best_sim = -2.0;
+    for (const auto& [id, info] : objects) {
+      if (info.active || !info.confirmed || info.class_votes.count(ObjectClass::kTag)) continue;
+      double need = o.reid_min_similarity;
+      for (const auto& [pid, pc] : prediction.objects)
+        if (pid == id &&
+            MeanCornerDistance(pc, d.corners_undistorted) <= o.reid_gate_frac * ShortestSide(pc))
+          need = std::min(need, o.reid_min_similarity_predicted);
+      for (int r = 0; r < 4; ++r) {
+        const Corners c = Shifted(d.corners_undistorted, r);
+        const std::optional<double> sim = tracker.Similarity(id, gray, c);
+        if (sim && *sim >= need && *sim > best_sim) {
+          best_sim = *sim;
+          best_id = id;
+          *corners = c;
+        }
+      }
+    }
+    return best_id;
+  }
+};
+
+FrontEnd::FrontEnd(const PinholeRadtan& camera, Options options)
+    : options_(std::move(options)), impl_(std::make_unique<Impl>(camera, options_)) {
+  std::string why;
+  FSP_CHECK(options_.Check(&why));
+}
+
+FrontEnd::~FrontEnd() = default;
+
+ObjectClass FrontEnd::ClassOf(int object_id) const {
+  const auto it = impl_->objects.find(object_id);
+  return it == impl_->objects.end() ? ObjectClass::kUnknown : it->second.Class();
+}
+
+FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& prediction) {
+  Impl& m = *impl_;
+  const Options& o = options_;
+  const cv::Mat& gray = frame.image;
+  if (gray.empty() || gray.type() != CV_8UC1)
+    throw InputError(frame.source + ": the front end needs an 8-bit grey image");
+  if (gray.cols != m.camera.width || gray.rows != m.camera.height)
+    throw InputError(frame.source + ": image is " + std::to_string(gray.cols) + "x" +
+                     std::to_string(gray.rows) + " but the calibration is " +
+                     std::to_string(m.camera.width) + "x" + std::to_string(m.camera.height));
+  FrontEndResult result;
+  Stopwatch sw;
+
+  // 1. track (every frame, also with no live object: the tracker keeps the frame for Start/Resume).
+  std::map<int, Corners> predicted;
+  if (prediction.R_Cprev_Ccur)
+    for (const auto& [id, info] : m.objects)
+      if (info.active) predicted[id] = RotateCorners(info.last, m.K, *prediction.R_Cprev_Ccur);
+  std::map<int, Corners> tracked;  // this frame's corners of the live objects
+  std::map<int, double> score;     // their confidence (tracker or detector)
+  bool lost_now = false;
+  for (const TrackedObject& t : m.tracker.Track(gray, predicted)) {
+    ObjectInfo& info = m.objects[t.id];
+    if (t.tracked) {
+      info.last = t.corners_undistorted;
+      tracked[t.id] = t.corners_undistorted;
+      score[t.id] = t.score;
+      continue;
+    }
+    info.active = false;
+    if (info.confirmed) {
+      ++result.lost;
+      lost_now = true;
+    } else {
+      m.tracker.Drop(t.id);  // a candidate lost before confirmation is forgotten
+      m.objects.erase(t.id);
+    }
+  }
+  result.times.Add("track", sw.Lap());
+
+  // 2. detect where needed.
+  int candidates = 0, confirmed_live = 0;
+  for (const auto& [id, info] : m.objects)
+    if (info.active) (info.confirmed ? confirmed_live : candidates)++;
+  const bool due = m.frame_index - m.last_detect_frame >= o.detect_every || candidates > 0 ||
+                   lost_now || m.lost_last_frame || confirmed_live == 0;
+  m.lost_last_frame = lost_now;
+  std::vector<Detection> dets;
+  if (due) {
+    dets = m.Detect(gray, prediction, o);
+    m.last_detect_frame = m.frame_index;
+    result.detected = true;
+    result.detections = static_cast<int>(dets.size());
+  }
+  result.times.Add("detect", sw.Lap());
+
+  // 3. associate. Tags by id first, then plain rectangles to live tracks by corner distance
+  // (greedy, nearest first), then re-identification or a new candidate.
+  std::map<int, Corners> from_detection;  // corners of objects (re)started in this frame
+  std::vector<bool> used(dets.size(), false);
+  auto vote = [&](ObjectInfo& info, const Detection& d) {
+    ++info.detections;
+    ++info.class_votes[d.object_class];
+    if (!info.confirmed && info.detections >= o.confirm_detections) {
+      info.confirmed = true;
+      ++result.started;
+    }
+  };
+  for (size_t i = 0; i < dets.size(); ++i) {
+    const Detection& d = dets[i];
+    if (d.tag_id < 0) continue;
+    used[i] = true;
+    auto it = m.objects.find(d.tag_id);
+    if (it != m.objects.end() && it->second.active) {
+      vote(it->second, d);
+      continue;
+    }
+    const bool known = it != m.objects.end();
+    if (known ? !m.tracker.Resume(d.tag_id, gray, d.corners_undistorted)
+              : !m.tracker.Start(d.tag_id, gray, d.corners_undistorted))
+      continue;
+    ObjectInfo& info = m.objects[d.tag_id];
+    if (known && info.confirmed) ++result.reidentified;
+    info.active = true;
+    info.last = d.corners_undistorted;
+    vote(info, d);
+    from_detection[d.tag_id] = d.corners_undistorted;
+    score[d.tag_id] = d.score;
+  }
+  struct Pair {
+    double dist;
+    size_t det;
+    int id;
+  };
+  std::vector<Pair> pairs;
+  for (size_t i = 0; i < dets.size(); ++i) {
+    if (used[i]) continue;
+    for (const auto& [id, c] : tracked) {
+      const double dist = MeanCornerDistance(c, dets[i].corners_undistorted);
+      if (dist <= std::max(3.0, o.match_gate_frac * ShortestSide(c)))
+        pairs.push_back({dist, i, id});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+    return a.dist != b.dist ? a.dist < b.dist : a.det != b.det ? a.det < b.det : a.id < b.id;
+  });
+  std::map<int, bool> track_matched;
+  for (const Pair& p : pairs) {
+    if (used[p.det] || track_matched[p.id]) continue;
+    used[p.det] = true;
+    track_matched[p.id] = true;
+    vote(m.objects[p.id], dets[p.det]);
+  }
+  for (size_t i = 0; i < dets.size(); ++i) {
+    if (used[i]) continue;
+    const Detection& d = dets[i];
+    // A detection on a live object that its track does not match closely (an outline nested in it,
+    // a track a little off) starts nothing.
+    const Vec2 centre = Centroid(d.corners_undistorted);
+    bool on_live = false;
+    for (const auto& [id, c] : tracked) on_live = on_live || InsideConvex(c, centre);
+    if (on_live) continue;
+    Corners corners;
+    int id = m.Reidentify(gray, d, prediction, o, &corners);
+    if (id >= 0) {
+      if (!m.tracker.Resume(id, gray, corners)) continue;
+      ++result.reidentified;
+    } else {
+      corners = d.corners_undistorted;
+      id = m.next_rect_id;
+      if (!m.tracker.Start(id, gray, corners)) continue;
+      ++m.next_rect_id;
+    }
+    ObjectInfo& info = m.objects[id];
+    info.active = true;
+    info.last = corners;
+    vote(info, d);
+    from_detection[id] = corners;
+    score[id] = d.score;
+  }
+  result.times.Add("associate", sw.Lap());
+
+  // 4. emit the confirmed objects seen in this frame.
+  for (const std::map<int, Corners>* source : {&tracked, &from_detection})
+    for (const auto& [id, c] : *source) {
+      const ObjectInfo& info = m.objects[id];
+      if (!info.confirmed || (source == &tracked && from_detection.count(id))) continue;
+      ObjectObservation obs;
+      obs.t_ns = frame.t_ns;
+      obs.object_id = id;
+      obs.object_class = info.Class();
+      obs.corners = c;
+      obs.score = score[id];
+      result.observations.push_back(obs);
+    }
+  std::sort(result.observations.begin(), result.observations.end(),
+            [](const ObjectObservation& a, const ObjectObservation& b) {
+              return a.object_id < b.object_id;
+            });
+  for (const auto& [id, info] : m.objects) result.candidates += info.active && !info.confirmed;
+  ++m.frame_index;
+  return result;
+}
+
+}  // namespace fsp::frontend

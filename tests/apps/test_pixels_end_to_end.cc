@@ -1,0 +1,132 @@
+// `fsp run --frontend rect` end to end from pixels: a rendered 640 x 480 sequence (a 10 x 8 x 3 m
+// room, 12 rectangles among them 3 AprilTags and a plain door, 10 s: 2 s still, then a loop in
+// front of two walls) goes through detection, tracking, association and the estimator. The front
+// end is scored against the ground-truth corners (recall, precision, corner error, identities), the
+// map and the trajectory against the ground truth. The sequence is rendered once per test process
+// (~10 s).
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "fsp/eval/evaluate.h"
+#include "fsp/sim/scene.h"
+#include "fsp/sim/sequence_writer.h"
+#include "test_util.h"
+
+namespace fsp::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+const char* kScene = R"(
+camera: {width: 640, height: 480, fx: 458.0, fy: 458.0, cx: 319.5, cy: 239.5, rate_hz: 20}
+T_B_C: [0, 0, 1, 0.05,  -1, 0, 0, 0.0,  0, -1, 0, 0.0,  0, 0, 0, 1]
+imu: {rate_hz: 200, gyroscope_noise_density: 1.7e-4, accelerometer_noise_density: 2.0e-3,
+      gyroscope_random_walk: 1.9e-5, accelerometer_random_walk: 3.0e-3,
+      gyroscope_bias: [0.002, -0.001, 0.0015], accelerometer_bias: [0.03, -0.02, 0.04]}
+room: {min: [0, 0, 0], max: [10, 8, 3]}
+objects:
+  - {id: 1, class: door, texture: plain, corners: [[1.9, 0, 0], [1.0, 0, 0], [1.0, 0, 2.1], [1.9, 0, 2.1]]}
+  - {id: 2, class: window, position: [4.6, 0, 1.0], rpy_deg: [90, 0, 180], width: 1.4, height: 1.2}
+  - {id: 3, class: window, position: [7.2, 0, 1.0], rpy_deg: [90, 0, 180], width: 1.4, height: 1.2}
+  - {id: 4, class: poster, position: [9.2, 0, 1.1], rpy_deg: [90, 0, 180], width: 0.8, height: 1.0}
+  - {id: 30, class: tag, tag_id: 30, position: [2.75, 0, 1.3], rpy_deg: [90, 0, 180], width: 0.3, height: 0.3}
+  - {id: 31, class: tag, tag_id: 31, position: [5.3, 0, 1.4], rpy_deg: [90, 0, 180], width: 0.2, height: 0.2}
+  - {id: 10, class: window, position: [0, 1.5, 1.0], rpy_deg: [90, 0, 90], width: 1.5, height: 1.2}
+  - {id: 11, class: poster, position: [0, 3.9, 1.2], rpy_deg: [90, 0, 90], width: 0.7, height: 1.0}
+  - {id: 33, class: tag, tag_id: 33, position: [0, 5.3, 1.4], rpy_deg: [90, 0, 90], width: 0.2, height: 0.2}
+  - {id: 12, class: door, position: [0, 6.4, 0], rpy_deg: [90, 0, 90], width: 0.9, height: 2.1}
+  - {id: 5, class: cabinet, corners: [[0.8, 8, 0], [2.0, 8, 0], [2.0, 8, 1.8], [0.8, 8, 1.8]]}
+  - {id: 6, class: painting, position: [2.8, 8, 1.3], rpy_deg: [90, 0, 0], width: 1.2, height: 0.8}
+trajectory:
+  waypoints:
+    - [0,  5.0, 4.0, 1.3, -90]
+    - [2,  5.0, 4.0, 1.3, -90]
+    - [4,  5.0, 2.4, 1.5, -90]
+    - [6,  3.5, 1.8, 1.3, -110]
+    - [8,  2.0, 2.4, 1.5, -160]
+    - [10, 1.8, 3.6, 1.2, 170]
+    - [12, 2.2, 5.0, 1.6, 150]
+noise: {pixel_sigma: 1.0, seed: 3}
+duration_s: 10
+)";
+
+const fs::path& Sequence() {
+  static const fs::path dir = [] {
+    const fs::path d = fs::temp_directory_path() / "fsp_tests" /
+                       ("pixels_e2e_sequence_" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    sim::SequenceOptions options;
+    options.video = true;
+    options.top_view = false;
+    options.progress = false;
+    sim::WriteSequence(sim::ParseScene(kScene, "pixels_e2e_scene.yaml", "."), d.string(), options);
+    return d;
+  }();
+  return dir;
+}
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+struct RunResult {
+  test::CommandResult command;
+  eval::Metrics metrics;
+  nlohmann::json run, map;
+};
+
+RunResult RunAndEvaluate(const std::string& input_and_args, const fs::path& out) {
+  RunResult r;
+  r.command = test::RunFsp("run " + input_and_args + " --out " + out.string());
+  EXPECT_EQ(r.command.exit_code, 0) << r.command.err;
+  if (r.command.exit_code != 0) return r;
+  r.metrics =
+      eval::Evaluate(eval::ResolvePaths(Sequence().string(), out.string()), eval::EvalOptions());
+  r.run = nlohmann::json::parse(Slurp(out / "run.json"));
+  r.map = nlohmann::json::parse(Slurp(out / "map.json"));
+  return r;
+}
+
+void Print(const char* label, const RunResult& r) {
+  const auto& t = r.metrics.trajectory;
+  const auto& o = r.metrics.objects;
+  const auto& f = r.metrics.frontend;
+  if (!t || !o || !f) return;
+  std::printf(
+      "[%s] ATE %.4f m, objects %zu/%zu (map %zu), width err mean %.4f max %.4f m, height err mean "
+      "%.4f max %.4f m, corner err mean %.4f m; front end recall %.3f precision %.3f corner median "
+      "%.3f px, id switches %d; front end median %.2f ms, back end median %.2f ms\n",
+      label, t->ate.rmse, o->matched, o->gt, r.map["objects"].size(), o->width_err.mean,
+      o->width_err.max, o->height_err.mean, o->height_err.max, o->corner_err.mean,
+      f->recall.value_or(0.0), f->precision.value_or(0.0), f->corner_err_px.median, f->id_switches,
+      r.run["stage_ms"]["frontend"]["median"].get<double>(),
+      r.run["stage_ms"]["backend"]["median"].get<double>());
+}
+
+TEST(PixelsEndToEnd, BatchFromPixelsMapsTheRoom) {
+  const RunResult r = RunAndEvaluate(Sequence().string() + " --frontend rect --mode batch",
+                                     test::ScratchDir() / "run");
+  ASSERT_TRUE(r.metrics.trajectory && r.metrics.objects && r.metrics.frontend);
+  Print("rect, batch", r);
+  const auto& f = *r.metrics.frontend;
+  EXPECT_GT(*f.recall, 0.0);
+  EXPECT_GT(*f.precision, 0.0);
+  // Tags are mapped under their tag ids.
+  std::set<int> ids;
+  for (const auto& o : r.map["objects"]) ids.insert(o["id"].get<int>());
+  for (int tag : {30, 31, 33}) EXPECT_TRUE(ids.count(tag)) << "tag " << tag;
+}
+
+}  // namespace
+}  // namespace fsp::apps
