@@ -5,21 +5,17 @@
 //
 //   bench_track [--per-object] CLIP_DIR [CLIP_DIR ...]
 //
-// Prints a markdown table to stdout, one row per (tracker, clip), frames of all the clip's objects
-// pooled
-// (--per-object: also one row per object):
+// Prints a markdown table to stdout, one row per (tracker, clip), the frames of all the clip's
+// objects pooled (--per-object: also one row per object):
 //   success 2px  frames where the ground truth is fully visible and all 4 reported corners are
-//   within
-//                2 px of the true ones (a box tracker's corners are its box corners, so it can only
-//                succeed while the object is close to an upright rectangle), in % of the fully
-//                visible frames after the start frame (frames without a report count as failures);
-//   success IoU  the same frames scored by box IoU >= 0.5 between the reported quad's bounding box
-//   and
-//                the true corners' bounding box (the usual box-tracker criterion);
-//   median px    median over those frames with a report of the mean distance of the 4 corners;
-//   out of view  frames with a report while the object is absent (no ground-truth row: out of the
-//   image
-//                or behind the camera); a box there is a false track;
+//                within 2 px of the true ones (a box tracker's corners are its box corners, so it
+//                can only succeed while the object is close to an upright rectangle), in % of the
+//                fully visible frames after the start frame (no report counts as a failure);
+//   success IoU  the same frames scored by box IoU >= 0.5 between the reported quad's bounding
+//                box and the true corners' bounding box (the usual box-tracker criterion);
+//   median px    median, over those frames with a report, of the mean distance of the 4 corners;
+//   out of view  frames with a report while the object is absent (no ground-truth row: out of
+//                the image or behind the camera); a box there is a false track;
 //   ms/frame     median over frames of Track() wall time divided by the number of started objects.
 // Frames where the object is only partly visible are not scored. Single thread
 // (cv::setNumThreads(1)).
@@ -57,8 +53,7 @@ struct Candidate {
   virtual std::string Name() const = 0;
   // Starts object `id` at `corners` (undistorted px, s1..s4) in `gray` (CV_8UC1).
   virtual void Start(int id, const cv::Mat& gray, const Corners& corners) = 0;
-  // Tracks every started object into `gray`; an object missing from the result has no report
-  // (lost).
+  // Tracks every started object into `gray`; an object missing from the result is not reported.
   virtual std::map<int, Corners> Track(const cv::Mat& gray) = 0;
 };
 
@@ -150,19 +145,22 @@ OpenCvCandidate::Ops MedianFlowOps() {
   return ops;
 }
 
-std::vector<std::unique_ptr<Candidate>> MakeCandidates() {
+// `camera`: the clip's calibration (the OpenCV trackers do not use it).
+std::vector<std::unique_ptr<Candidate>> MakeCandidates(const PinholeRadtan& camera) {
+  (void)camera;
   std::vector<std::unique_ptr<Candidate>> c;
   c.push_back(
       std::make_unique<OpenCvCandidate>("OpenCV KCF", [] { return ModernOps<cv::TrackerKCF>(); }));
   c.push_back(std::make_unique<OpenCvCandidate>("OpenCV CSRT",
                                                 [] { return ModernOps<cv::TrackerCSRT>(); }));
   c.push_back(std::make_unique<OpenCvCandidate>("OpenCV MedianFlow", MedianFlowOps));
-  // ---------------------------------------------------------------------------------------------------
-  // ADAPTER FOR THE PROJECT'S ObjectTracker (fsp/frontend/object_tracker.h): to be added here once
-  // its implementation is on this branch. Start -> ObjectTracker::Start, Track ->
-  // ObjectTracker::Track (report the corners of the entries it still tracks). Link fsp_frontend in
-  // tests/bench/CMakeLists.txt.
-  // ---------------------------------------------------------------------------------------------------
+  // ==== ADAPTER FOR THE PROJECT'S ObjectTracker (fsp/frontend/object_tracker.h) ===============
+  // To be added here once its implementation is on this branch (link fsp_frontend in
+  // tests/bench/CMakeLists.txt): a Candidate holding ObjectTracker(camera); Start ->
+  // ObjectTracker::Start, Track -> ObjectTracker::Track, reporting the corners of the entries it
+  // still tracks. No ground truth is given after Start, so a returning object counts only when the
+  // tracker re-finds it itself.
+  // =============================================================================================
   return c;
 }
 
@@ -304,7 +302,7 @@ int Main(int argc, char** argv) {
     const std::vector<CornerRow> rows = ReadCornerRows(dir + "/observations_gt.csv");
     const std::string clip = std::filesystem::path(dir).lexically_normal().filename().string();
     // Fresh candidates per clip: no state carries over.
-    for (const std::unique_ptr<Candidate>& cand : MakeCandidates()) {
+    for (const std::unique_ptr<Candidate>& cand : MakeCandidates(source->calibration().camera)) {
       const ClipScore cs = RunClip(cand.get(), *source, rows);
       Score all;
       for (const auto& [id, s] : cs.objects) {
