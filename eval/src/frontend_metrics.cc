@@ -73,19 +73,30 @@ long NearestTime(const std::vector<int64_t>& times, int64_t t, int64_t tolerance
   return std::llabs(*it - t) <= tolerance ? static_cast<long>(it - times.begin()) : -1;
 }
 
-// Frames = FRAME_TIMES ∪ ground-truth times; estimated rows snap to the nearest within the
-// tolerance, and the times of those that snap to none are frames too.
+// Each row's time snapped to the nearest of the sorted TIMES within TOLERANCE (its own time when
+// none is that close); the times used are added to FRAMES.
+std::vector<int64_t> SnapTimes(const std::vector<CornerRow>& rows,
+                               const std::vector<int64_t>& times, int64_t tolerance,
+                               std::set<int64_t>* frames) {
+  std::vector<int64_t> snapped(rows.size());
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const long k = NearestTime(times, rows[i].t_ns, tolerance);
+    snapped[i] = k >= 0 ? times[static_cast<size_t>(k)] : rows[i].t_ns;
+    frames->insert(snapped[i]);
+  }
+  return snapped;
+}
+
+// Frames: FRAME_TIMES, then the ground truth's times (snapped to FRAME_TIMES when within the
+// tolerance, so a sequence whose frame list is stamped slightly differently does not get doubled
+// frames), then the estimate's (snapped to both).
 Frames BuildFrames(const std::vector<CornerRow>& gt, const std::vector<CornerRow>& est,
                    const std::vector<int64_t>& frame_times, int64_t tolerance) {
   std::set<int64_t> base(frame_times.begin(), frame_times.end());
-  for (const CornerRow& g : gt) base.insert(g.t_ns);
-  const std::vector<int64_t> base_times(base.begin(), base.end());
-  std::vector<int64_t> est_times(est.size());
-  for (size_t i = 0; i < est.size(); ++i) {
-    const long k = NearestTime(base_times, est[i].t_ns, tolerance);
-    est_times[i] = k >= 0 ? base_times[static_cast<size_t>(k)] : est[i].t_ns;
-    base.insert(est_times[i]);
-  }
+  const std::vector<int64_t> gt_times =
+      SnapTimes(gt, std::vector<int64_t>(base.begin(), base.end()), tolerance, &base);
+  const std::vector<int64_t> est_times =
+      SnapTimes(est, std::vector<int64_t>(base.begin(), base.end()), tolerance, &base);
   Frames f;
   f.times.assign(base.begin(), base.end());
   f.gt_rows.resize(f.times.size());
@@ -94,7 +105,7 @@ Frames BuildFrames(const std::vector<CornerRow>& gt, const std::vector<CornerRow
     return static_cast<size_t>(std::lower_bound(f.times.begin(), f.times.end(), t) -
                                f.times.begin());
   };
-  for (size_t i = 0; i < gt.size(); ++i) f.gt_rows[index(gt[i].t_ns)].push_back(i);
+  for (size_t i = 0; i < gt.size(); ++i) f.gt_rows[index(gt_times[i])].push_back(i);
   for (size_t i = 0; i < est.size(); ++i) f.est_rows[index(est_times[i])].push_back(i);
   return f;
 }

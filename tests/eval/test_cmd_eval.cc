@@ -2,7 +2,6 @@
 // the expected numbers; bad input gives a non-zero exit and one line on stderr.
 #include <cmath>
 #include <fstream>
-#include <iterator>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -160,8 +159,9 @@ TEST(CmdEval, SequenceAndRunFoldersGiveEveryBlock) {
 // Replaces every occurrence of FROM in the file at PATH by TO.
 void ReplaceInFile(const std::filesystem::path& path, const std::string& from,
                    const std::string& to) {
-  std::ifstream in(path);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::ostringstream buffer;
+  buffer << std::ifstream(path).rdbuf();
+  std::string text = buffer.str();
   for (size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
     text.replace(at, from.size(), to);
   }
@@ -195,6 +195,29 @@ TEST(CmdEval, RenumberedTrackerIdsGiveTheSameNumbers) {
   }
   EXPECT_EQ(a.at("objects"), b.at("objects"));
   EXPECT_EQ(a.at("frontend"), b.at("frontend"));
+}
+
+TEST(CmdEval, FramesComeFromCam0DataCsv) {
+  // With the sequence's cam0/data.csv the front end counts all 40 frames (the files have rows in
+  // 2).
+  const auto dir = test::ScratchDir();
+  MakeSequenceAndRun(dir / "seq", dir / "run");
+  std::string csv = "#timestamp [ns],filename\n";
+  for (int i = 0; i < 40; ++i) {
+    const std::string t = std::to_string(1'000'000'000 + int64_t{i} * 50'000'000);
+    csv += t + "," + t + ".png\n";
+  }
+  WriteText(dir / "seq" / "mav0" / "cam0" / "data.csv", csv);
+  const auto out = dir / "metrics.json";
+  const auto r = test::RunFsp("eval --gt " + (dir / "seq").string() + " --est " +
+                              (dir / "run").string() + " --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(ReadJson(out).at("frontend").at("frames"), 40);
+  WriteText(dir / "seq" / "mav0" / "cam0" / "data.csv", csv + "12x,12.png\n");
+  const auto bad =
+      test::RunFsp("eval --gt " + (dir / "seq").string() + " --est " + (dir / "run").string());
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("data.csv:42: expected t_ns,filename"), std::string::npos) << bad.err;
 }
 
 TEST(CmdEval, AbsentPartsGiveAbsentBlocks) {

@@ -128,6 +128,17 @@ TEST(TrackingMetrics, AbsencesNeedTheSequenceFrames) {
   EXPECT_EQ(with_frames.frames, 40u);
   EXPECT_EQ(with_frames.returns, 2u);
   EXPECT_EQ(with_frames.reidentified, 1u);
+  // A frame list stamped 0.4 ms off the ground truth: rows snap to it, no frame is doubled.
+  std::vector<int64_t> shifted = FrameTimes(40);
+  for (int64_t& t : shifted) t += 400'000;
+  for (CornerRow& r : gt)
+    r.t_ns *= 10'000;  // frames 1 ms apart, so the 0.4 ms offset is in tolerance
+  for (CornerRow& r : est) r.t_ns *= 10'000;
+  for (int64_t& t : shifted) t = (t - 400'000) * 10'000 + 400'000;
+  const FrontendMetrics snapped = EvaluateFrontend(gt, est, FrontendOptions{}, shifted);
+  EXPECT_EQ(snapped.frames, 40u);
+  EXPECT_EQ(snapped.returns, 2u);
+  EXPECT_EQ(snapped.matched, with_frames.matched);
 }
 
 TEST(TrackingMetrics, BoxOnAnAbsentObjectNeedsNoRowAtAll) {

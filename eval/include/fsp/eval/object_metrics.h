@@ -3,22 +3,20 @@
 // is judged in the same gauge as the trajectory).
 //
 // Matching is by geometry, never by id (a tracker's ids are its own): the distance of an estimated
-// and a ground-truth object is d = min over the 4 cyclic shifts r of 1/4 Σ_j ‖A(c_est,(j+r) mod 4)
-// − c_gt,j‖ [m] with A the alignment (so corners listed from the wrong corner still match; such a
-// match counts in corner_order_errors); pairs with d ≤ match_gate_m are taken greedily by
-// increasing d (ties: ground-truth then estimated index), each object at most once. With the ground
-// truth's own ids in the map (gt-corners runs) and objects placed better than half their spacing,
-// this pairs equal ids.
+// and a ground-truth object is d = min over the 4 cyclic shifts r of
+// 1/4 Σ_j ‖A(c_est,(j+r) mod 4) − c_gt,j‖ [m] with A the alignment (so corners listed from the
+// wrong corner still match; such a match counts in corner_order_errors); pairs with d ≤
+// match_gate_m are taken greedily by increasing d (ties: ground-truth then estimated index), each
+// object at most once. With the ground truth's own ids in the map (gt-corners runs) and objects
+// placed better than half their spacing, this pairs equal ids.
 //
-//  - corner error of corner j of a matched object: ‖s R c_est,j + t − c_gt,j‖ [m], corners in
-//  s1..s4 order;
-//    mean and median over all corners of all matched objects (4 per object).
+//  - corner error of corner j of a matched object: ‖s R c_est,j + t − c_gt,j‖ [m], corners in the
+//    files' s1..s4 order (a wrongly ordered corner set shows up here); mean and median over all
+//    corners of all matched objects (4 per object).
 //  - width / height error: |s w_est − w_gt|, |s h_est − h_gt| [m] (rigid alignment leaves sizes
-//  alone;
-//    Sim3 scales them by s); mean and max over matched objects.
+//    alone; Sim3 scales them by s); mean and max over matched objects.
 //  - normal error: angle between R n_est and n_gt [deg], n = (c2 − c1) × (c4 − c1) / ‖…‖ (the face
-//  normal z).
-// Errors use the files' own corner order (a wrongly ordered corner set shows up in them).
+//    normal z).
 #pragma once
 
 #include <array>
