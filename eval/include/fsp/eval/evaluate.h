@@ -1,6 +1,6 @@
 // `fsp eval`: finds what a ground truth and an estimate hold, computes every metric block that both
-// sides allow, and writes metrics.json (names in CONTRACT.md). A block that cannot be computed is
-// absent.
+// sides allow, and writes metrics.json (field names in the README, "Files"). A block that cannot be
+// computed is absent.
 #pragma once
 
 #include <cstdint>
