@@ -14,12 +14,26 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string IfFile(const fs::path& p) { return fs::is_regular_file(p) ? p.string() : std::string(); }
+std::string IfFile(const fs::path& p) {
+  return fs::is_regular_file(p) ? p.string() : std::string();
+}
 
 std::string Format(const char* fmt, double v) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), fmt, v);
   return buf;
+}
+
+// "  map ids: 7->1 9->2" for the matches whose map id differs from the ground truth's (empty when
+// none).
+std::string ObjectIdLine(const ObjectMetrics& o) {
+  std::string line;
+  for (const ObjectError& e : o.per_object) {
+    if (e.est_id != e.id) line += " " + std::to_string(e.est_id) + "->" + std::to_string(e.id);
+  }
+  if (o.corner_order_errors > 0)
+    line += " (" + std::to_string(o.corner_order_errors) + " with corners out of order)";
+  return line.empty() ? line : "  map ids matched by geometry:" + line + "\n";
 }
 
 }  // namespace
@@ -33,17 +47,20 @@ EvalPaths ResolvePaths(const std::string& gt, const std::string& est) {
     if (!fs::is_directory(mav0)) {
       mav0 = gt;
       seq = fs::path(gt).lexically_normal().parent_path();
-      if (fs::is_regular_file(fs::path(gt) / "objects_gt.json") || fs::is_regular_file(fs::path(gt) / "observations_gt.csv")) {
+      if (fs::is_regular_file(fs::path(gt) / "objects_gt.json") ||
+          fs::is_regular_file(fs::path(gt) / "observations_gt.csv")) {
         seq = gt;
       }
     }
     p.gt_trajectory = IfFile(mav0 / "state_groundtruth_estimate0" / "data.csv");
     p.objects_gt = IfFile(seq / "objects_gt.json");
     p.observations_gt = IfFile(seq / "observations_gt.csv");
+    p.frame_times = IfFile(mav0 / "cam0" / "data.csv");
     if (p.gt_trajectory.empty() && p.objects_gt.empty() && p.observations_gt.empty()) {
-      throw InputError(gt, 0,
-                       "no ground truth in this folder (expected mav0/state_groundtruth_estimate0/data.csv, "
-                       "objects_gt.json or observations_gt.csv)");
+      throw InputError(
+          gt, 0,
+          "no ground truth in this folder (expected mav0/state_groundtruth_estimate0/data.csv, "
+          "objects_gt.json or observations_gt.csv)");
     }
   } else {
     p.gt_trajectory = gt;
@@ -56,9 +73,10 @@ EvalPaths ResolvePaths(const std::string& gt, const std::string& est) {
     p.observations = IfFile(fs::path(est) / "observations.csv");
     p.run_json = IfFile(fs::path(est) / "run.json");
     if (p.est_trajectory.empty() && p.map.empty() && p.observations.empty() && p.run_json.empty()) {
-      throw InputError(est, 0,
-                       "no run output in this folder (expected trajectory.tum, map.json, observations.csv or "
-                       "run.json)");
+      throw InputError(
+          est, 0,
+          "no run output in this folder (expected trajectory.tum, map.json, observations.csv or "
+          "run.json)");
     }
   } else {
     p.est_trajectory = est;
@@ -66,7 +84,29 @@ EvalPaths ResolvePaths(const std::string& gt, const std::string& est) {
   return p;
 }
 
-bool EvalOptions::Check(std::string* why) const { return trajectory.Check(why) && frontend.Check(why); }
+bool EvalOptions::Check(std::string* why) const {
+  return trajectory.Check(why) && frontend.Check(why) && objects.Check(why);
+}
+
+std::vector<int64_t> ReadFrameTimes(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, 0, "cannot open frame list");
+  std::vector<int64_t> times;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (line.empty() || line[0] == '#' || line == "\r") continue;
+    size_t used = 0;
+    try {
+      times.push_back(std::stoll(line, &used));
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || (used < line.size() && line[used] != ',')) {
+      throw InputError(path, n, "expected t_ns,filename");
+    }
+  }
+  return times;
+}
 
 std::optional<RuntimeMetrics> ReadRuntime(const std::string& run_json) {
   std::ifstream in(run_json);
@@ -100,10 +140,11 @@ Metrics Evaluate(const EvalPaths& paths, const EvalOptions& options) {
   m.paths = paths;
 
   if (!paths.gt_trajectory.empty() && !paths.est_trajectory.empty()) {
-    m.trajectory = EvaluateTrajectory(ReadTrajectory(paths.gt_trajectory), ReadTrajectory(paths.est_trajectory),
-                                      options.trajectory);
+    m.trajectory = EvaluateTrajectory(ReadTrajectory(paths.gt_trajectory),
+                                      ReadTrajectory(paths.est_trajectory), options.trajectory);
   } else {
-    m.notes.push_back(paths.gt_trajectory.empty() ? "no ground-truth trajectory" : "no estimated trajectory");
+    m.notes.push_back(paths.gt_trajectory.empty() ? "no ground-truth trajectory"
+                                                  : "no estimated trajectory");
   }
 
   if (!paths.objects_gt.empty() && !paths.map.empty()) {
@@ -112,9 +153,10 @@ Metrics Evaluate(const EvalPaths& paths, const EvalOptions& options) {
     if (gt.empty()) {
       m.notes.push_back("objects: the ground truth has no objects");
     } else if (!m.trajectory) {
-      m.notes.push_back("objects: need both trajectories to bring the map into the ground truth's frame");
+      m.notes.push_back(
+          "objects: need both trajectories to bring the map into the ground truth's frame");
     } else {
-      m.objects = EvaluateObjects(gt, est, m.trajectory->alignment);
+      m.objects = EvaluateObjects(gt, est, m.trajectory->alignment, options.objects);
     }
   }
 
@@ -124,15 +166,18 @@ Metrics Evaluate(const EvalPaths& paths, const EvalOptions& options) {
     if (gt.empty()) {
       m.notes.push_back("front end: the ground truth has no observations");
     } else {
-      m.frontend = EvaluateFrontend(gt, est, options.frontend);
+      const std::vector<int64_t> frames =
+          paths.frame_times.empty() ? std::vector<int64_t>() : ReadFrameTimes(paths.frame_times);
+      m.frontend = EvaluateFrontend(gt, est, options.frontend, frames);
     }
   }
 
   if (!paths.run_json.empty()) m.runtime = ReadRuntime(paths.run_json);
 
   if (!m.trajectory && !m.objects && !m.frontend && !m.runtime) {
-    std::string msg = "nothing to evaluate: ground truth and estimate share no trajectory, objects, "
-                      "observations or runtime";
+    std::string msg =
+        "nothing to evaluate: ground truth and estimate share no trajectory, objects, "
+        "observations or runtime";
     for (const std::string& n : m.notes) msg += "; " + n;
     throw InputError(msg);
   }
@@ -144,7 +189,7 @@ nlohmann::ordered_json ToJson(const Metrics& m) {
   if (m.trajectory) {
     const TrajectoryMetrics& t = *m.trajectory;
     nlohmann::ordered_json b;
-    // CONTRACT.md's fields first, then the rest of the statistics.
+    // The README's fields first, then the rest of the statistics.
     b["pairs"] = t.pairs;
     b["align"] = ToString(t.alignment.mode);
     b["ate_rmse_m"] = t.ate.rmse;
@@ -185,6 +230,7 @@ nlohmann::ordered_json ToJson(const Metrics& m) {
     b["gt"] = o.gt;
     b["estimated"] = o.estimated;
     b["matched"] = o.matched;
+    b["corner_order_errors"] = o.corner_order_errors;
     if (o.matched > 0) {
       b["corner_err_mean_m"] = o.corner_err.mean;
       b["corner_err_median_m"] = o.corner_err.median;
@@ -196,6 +242,7 @@ nlohmann::ordered_json ToJson(const Metrics& m) {
       nlohmann::ordered_json per = nlohmann::ordered_json::array();
       for (const ObjectError& e : o.per_object) {
         per.push_back({{"id", e.id},
+                       {"est_id", e.est_id},
                        {"corner_err_mean_m", e.corner_err_mean_m},
                        {"width_err_m", e.width_err_m},
                        {"height_err_m", e.height_err_m},
@@ -203,6 +250,15 @@ nlohmann::ordered_json ToJson(const Metrics& m) {
       }
       b["per_object"] = per;
     }
+    // The geometric matching itself: which map object stands for which ground-truth object.
+    nlohmann::ordered_json matches = nlohmann::ordered_json::array();
+    for (const ObjectError& e : o.per_object) {
+      matches.push_back({{"est_id", e.est_id},
+                         {"gt_id", e.id},
+                         {"corner_err_m", e.corner_err_mean_m},
+                         {"corner_shift", e.corner_shift}});
+    }
+    b["matches"] = matches;
     j["objects"] = b;
   }
   if (m.frontend) {
@@ -212,20 +268,36 @@ nlohmann::ordered_json ToJson(const Metrics& m) {
     if (f.precision) b["precision"] = *f.precision;
     if (f.corner_err_px.count > 0) b["corner_err_px_median"] = f.corner_err_px.median;
     b["id_switches"] = f.id_switches;
+    if (f.success_rate) b["success_rate"] = *f.success_rate;
+    b["success_frames"] = f.success_frames;
+    b["success_total"] = f.success_total;
+    b["boxes_out_of_view"] = f.boxes_out_of_view;
+    b["unmatched_est_rows"] = f.unmatched_est_rows;
+    b["returns"] = f.returns;
+    b["reidentified"] = f.reidentified;
+    if (f.reid_rate) b["reid_rate"] = *f.reid_rate;
+    if (f.id_switches_per_1000) b["id_switches_per_1000"] = *f.id_switches_per_1000;
     if (f.corner_err_px.count > 0) b["corner_err_px_mean"] = f.corner_err_px.mean;
     b["gt_rows"] = f.gt_rows;
     b["gt_fully_visible"] = f.gt_fully_visible;
     b["est_rows"] = f.est_rows;
     b["matched"] = f.matched;
     b["corner_order_errors"] = f.corner_order_errors;
+    b["frames"] = f.frames;
+    // Estimated id -> ground-truth id (JSON keys are strings).
+    nlohmann::ordered_json id_map = nlohmann::ordered_json::object();
+    for (const auto& [est_id, gt_id] : f.id_map) id_map[std::to_string(est_id)] = gt_id;
+    b["id_map"] = id_map;
     j["frontend"] = b;
   }
   if (m.runtime) {
     nlohmann::ordered_json b = nlohmann::ordered_json::object();
     if (m.runtime->frames) {
       const double fr = *m.runtime->frames;
-      if (fr == std::floor(fr) && std::abs(fr) < 9e15) b["frames"] = static_cast<int64_t>(fr);
-      else b["frames"] = fr;
+      if (fr == std::floor(fr) && std::abs(fr) < 9e15)
+        b["frames"] = static_cast<int64_t>(fr);
+      else
+        b["frames"] = fr;
     }
     if (m.runtime->wall_s) b["wall_s"] = *m.runtime->wall_s;
     if (m.runtime->realtime_factor) b["realtime_factor"] = *m.runtime->realtime_factor;
@@ -241,37 +313,48 @@ std::string FormatSummary(const Metrics& m) {
     os << "trajectory: " << t.pairs << " pairs (" << t.ref_poses << " reference, " << t.est_poses
        << " estimated poses), " << ToString(t.alignment.mode) << " alignment";
     if (t.alignment.mode == AlignMode::kSim3) os << ", scale " << Format("%.6f", t.alignment.scale);
-    os << "\n  ATE rmse " << Format("%.6f", t.ate.rmse) << " m, mean " << Format("%.6f", t.ate.mean) << " m, median "
-       << Format("%.6f", t.ate.median) << " m, max " << Format("%.6f", t.ate.max) << " m\n";
+    os << "\n  ATE rmse " << Format("%.6f", t.ate.rmse) << " m, mean " << Format("%.6f", t.ate.mean)
+       << " m, median " << Format("%.6f", t.ate.median) << " m, max " << Format("%.6f", t.ate.max)
+       << " m\n";
     if (t.rpe_trans.count > 0) {
-      os << "  RPE (1 frame) rmse " << Format("%.6f", t.rpe_trans.rmse) << " m, " << Format("%.4f", t.rpe_rot.rmse)
-         << " deg over " << t.rpe_trans.count << " steps\n";
+      os << "  RPE (1 frame) rmse " << Format("%.6f", t.rpe_trans.rmse) << " m, "
+         << Format("%.4f", t.rpe_rot.rmse) << " deg over " << t.rpe_trans.count << " steps\n";
     }
   }
   if (m.objects) {
     const ObjectMetrics& o = *m.objects;
-    os << "objects: " << o.matched << " matched (" << o.gt << " in the ground truth, " << o.estimated
-       << " in the map)";
+    os << "objects: " << o.matched << " matched (" << o.gt << " in the ground truth, "
+       << o.estimated << " in the map)";
     if (o.matched > 0) {
       os << "\n  corner error mean " << Format("%.4f", o.corner_err.mean) << " m, median "
-         << Format("%.4f", o.corner_err.median) << " m; width error mean " << Format("%.4f", o.width_err.mean)
-         << " m, max " << Format("%.4f", o.width_err.max) << " m; height error mean "
-         << Format("%.4f", o.height_err.mean) << " m, max " << Format("%.4f", o.height_err.max) << " m";
+         << Format("%.4f", o.corner_err.median) << " m; width error mean "
+         << Format("%.4f", o.width_err.mean) << " m, max " << Format("%.4f", o.width_err.max)
+         << " m; height error mean " << Format("%.4f", o.height_err.mean) << " m, max "
+         << Format("%.4f", o.height_err.max) << " m";
     }
-    os << "\n";
+    os << "\n" << ObjectIdLine(o);
   }
   if (m.frontend) {
     const FrontendMetrics& f = *m.frontend;
-    os << "front end: recall " << (f.recall ? Format("%.4f", *f.recall) : std::string("n/a")) << ", precision "
-       << (f.precision ? Format("%.4f", *f.precision) : std::string("n/a"));
-    if (f.corner_err_px.count > 0) os << ", corner error median " << Format("%.3f", f.corner_err_px.median) << " px";
-    os << ", " << f.id_switches << " id switches\n";
+    os << "front end: recall " << (f.recall ? Format("%.4f", *f.recall) : std::string("n/a"))
+       << ", precision " << (f.precision ? Format("%.4f", *f.precision) : std::string("n/a"));
+    if (f.corner_err_px.count > 0)
+      os << ", corner error median " << Format("%.3f", f.corner_err_px.median) << " px";
+    os << ", " << f.id_switches << " id switches";
+    if (f.id_switches_per_1000)
+      os << " (" << Format("%.2f", *f.id_switches_per_1000) << " per 1000 matches)";
+    os << "\n  success " << f.success_frames << "/" << f.success_total
+       << (f.success_rate ? " (" + Format("%.4f", *f.success_rate) + ")" : std::string())
+       << ", boxes out of view " << f.boxes_out_of_view << ", unmatched rows "
+       << f.unmatched_est_rows << ", re-identified " << f.reidentified << "/" << f.returns
+       << " returns, " << f.id_map.size() << " track ids over " << f.frames << " frames\n";
   }
   if (m.runtime) {
     os << "runtime:";
     if (m.runtime->frames) os << " " << Format("%.0f", *m.runtime->frames) << " frames";
     if (m.runtime->wall_s) os << " in " << Format("%.2f", *m.runtime->wall_s) << " s";
-    if (m.runtime->realtime_factor) os << " (" << Format("%.2f", *m.runtime->realtime_factor) << "x real time)";
+    if (m.runtime->realtime_factor)
+      os << " (" << Format("%.2f", *m.runtime->realtime_factor) << "x real time)";
     os << "\n";
   }
   for (const std::string& n : m.notes) os << "(" << n << ")\n";

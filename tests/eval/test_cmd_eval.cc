@@ -1,12 +1,12 @@
-// `fsp eval` end to end: a hand-made sequence folder and run folder give every metric block with the
-// expected numbers; bad input gives a non-zero exit and one line on stderr.
+// `fsp eval` end to end: a hand-made sequence folder and run folder give every metric block with
+// the expected numbers; bad input gives a non-zero exit and one line on stderr.
 #include <cmath>
 #include <fstream>
 #include <sstream>
 
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "fsp/common/trajectory_io.h"
 #include "test_util.h"
@@ -37,8 +37,8 @@ const Mat3 kR = RotFromRpy(0.1, -0.2, 0.9);
 const Vec3 kT(2.0, -1.0, 0.5);
 
 // Sequence folder: 40 ground-truth poses at 20 Hz on a rising helix (EuRoC csv), two objects, a few
-// corner observations. Run folder: the same poses in another world (TUM), a map with a door 0.05 m off
-// at every corner, observations, run.json.
+// corner observations. Run folder: the same poses in another world (TUM), a map with a door 0.05 m
+// off at every corner, observations, run.json.
 void MakeSequenceAndRun(const std::filesystem::path& seq, const std::filesystem::path& run) {
   std::vector<StateSample> gt;
   std::vector<StampedPose> est;
@@ -92,8 +92,8 @@ TEST(CmdEval, SequenceAndRunFoldersGiveEveryBlock) {
   const auto dir = test::ScratchDir();
   MakeSequenceAndRun(dir / "seq", dir / "run");
   const auto out = dir / "metrics.json";
-  const auto r = test::RunFsp("eval --gt " + (dir / "seq").string() + " --est " + (dir / "run").string() +
-                              " --out " + out.string());
+  const auto r = test::RunFsp("eval --gt " + (dir / "seq").string() + " --est " +
+                              (dir / "run").string() + " --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("ATE rmse"), std::string::npos) << r.out;
   const nlohmann::json m = ReadJson(out);
@@ -123,18 +123,101 @@ TEST(CmdEval, SequenceAndRunFoldersGiveEveryBlock) {
   EXPECT_NEAR(o.at("height_err_mean_m").get<double>(), 0.0, 1e-8);
   EXPECT_NEAR(o.at("height_err_max_m").get<double>(), 0.0, 1e-8);
 
-  // Front end: 3 fully visible GT rows, object 1 found twice (1 px, then exact; ids 4 then 5: one switch),
-  // object 2 missed; one of three detections is spurious.
+  // Front end: 3 fully visible GT rows, object 1 found twice (1 px, then exact; ids 4 then 5: one
+  // switch), object 2 missed; one of three detections is spurious.
   const auto& f = m.at("frontend");
   EXPECT_DOUBLE_EQ(f.at("recall").get<double>(), 2.0 / 3.0);
   EXPECT_DOUBLE_EQ(f.at("precision").get<double>(), 2.0 / 3.0);
   EXPECT_DOUBLE_EQ(f.at("corner_err_px_median").get<double>(), 0.5);
   EXPECT_EQ(f.at("id_switches"), 1);
+  // Tracking: no cam0/data.csv, so the frames are the files' 2 times; ids 4 and 5 both stand for
+  // object 1; both of its fully visible rows are within 2 px (1 px, exact); id 6 matches nothing
+  // but maps to no object either; no absence, so no return.
+  EXPECT_EQ(f.at("frames"), 2);
+  EXPECT_EQ(f.at("id_map"), nlohmann::json({{"4", 1}, {"5", 1}}));
+  EXPECT_EQ(f.at("success_frames"), 2);
+  EXPECT_EQ(f.at("success_total"), 2);
+  EXPECT_DOUBLE_EQ(f.at("success_rate").get<double>(), 1.0);
+  EXPECT_EQ(f.at("boxes_out_of_view"), 0);
+  EXPECT_EQ(f.at("unmatched_est_rows"), 1);
+  EXPECT_EQ(f.at("returns"), 0);
+  EXPECT_FALSE(f.contains("reid_rate"));
+  EXPECT_DOUBLE_EQ(f.at("id_switches_per_1000").get<double>(), 500.0);
+  // The objects' geometric matching: map object 1 is ground-truth object 1.
+  ASSERT_EQ(o.at("matches").size(), 1u);
+  EXPECT_EQ(o.at("matches")[0].at("est_id"), 1);
+  EXPECT_EQ(o.at("matches")[0].at("gt_id"), 1);
+  EXPECT_NEAR(o.at("matches")[0].at("corner_err_m").get<double>(), 0.05, 1e-8);
+  EXPECT_EQ(o.at("corner_order_errors"), 0);
 
   const auto& rt = m.at("runtime");
   EXPECT_EQ(rt.at("frames"), 40);
   EXPECT_DOUBLE_EQ(rt.at("wall_s").get<double>(), 1.25);
   EXPECT_DOUBLE_EQ(rt.at("realtime_factor").get<double>(), 1.6);
+}
+
+// Replaces every occurrence of FROM in the file at PATH by TO.
+void ReplaceInFile(const std::filesystem::path& path, const std::string& from,
+                   const std::string& to) {
+  std::ostringstream buffer;
+  buffer << std::ifstream(path).rdbuf();
+  std::string text = buffer.str();
+  for (size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
+    text.replace(at, from.size(), to);
+  }
+  WriteText(path, text);
+}
+
+TEST(CmdEval, RenumberedTrackerIdsGiveTheSameNumbers) {
+  // A tracker's ids are its own: renumbering the map and the observations changes only the id maps.
+  const auto dir = test::ScratchDir();
+  MakeSequenceAndRun(dir / "seq", dir / "run");
+  const auto same = test::RunFsp("eval --gt " + (dir / "seq").string() + " --est " +
+                                 (dir / "run").string() + " --out " + (dir / "same.json").string());
+  ASSERT_EQ(same.exit_code, 0) << same.err;
+  ReplaceInFile(dir / "run" / "map.json", "\"id\": 1,", "\"id\": 17,");
+  for (const char* id : {"4", "5", "6"}) {
+    ReplaceInFile(dir / "run" / "observations.csv", "0," + std::string(id) + ",",
+                  "0," + std::string(id) + "0,");
+  }
+  const auto renumbered =
+      test::RunFsp("eval --gt " + (dir / "seq").string() + " --est " + (dir / "run").string() +
+                   " --out " + (dir / "renumbered.json").string());
+  ASSERT_EQ(renumbered.exit_code, 0) << renumbered.err;
+  nlohmann::json a = ReadJson(dir / "same.json"), b = ReadJson(dir / "renumbered.json");
+  EXPECT_EQ(b.at("objects").at("matches")[0].at("est_id"), 17);
+  EXPECT_EQ(b.at("objects").at("per_object")[0].at("est_id"), 17);
+  EXPECT_EQ(b.at("frontend").at("id_map"), nlohmann::json({{"40", 1}, {"50", 1}}));
+  for (nlohmann::json* m : {&a, &b}) {
+    m->at("objects").erase("matches");
+    m->at("objects").erase("per_object");
+    m->at("frontend").erase("id_map");
+  }
+  EXPECT_EQ(a.at("objects"), b.at("objects"));
+  EXPECT_EQ(a.at("frontend"), b.at("frontend"));
+}
+
+TEST(CmdEval, FramesComeFromCam0DataCsv) {
+  // With the sequence's cam0/data.csv the front end counts all 40 frames (the files have rows in
+  // 2).
+  const auto dir = test::ScratchDir();
+  MakeSequenceAndRun(dir / "seq", dir / "run");
+  std::string csv = "#timestamp [ns],filename\n";
+  for (int i = 0; i < 40; ++i) {
+    const std::string t = std::to_string(1'000'000'000 + int64_t{i} * 50'000'000);
+    csv += t + "," + t + ".png\n";
+  }
+  WriteText(dir / "seq" / "mav0" / "cam0" / "data.csv", csv);
+  const auto out = dir / "metrics.json";
+  const auto r = test::RunFsp("eval --gt " + (dir / "seq").string() + " --est " +
+                              (dir / "run").string() + " --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(ReadJson(out).at("frontend").at("frames"), 40);
+  WriteText(dir / "seq" / "mav0" / "cam0" / "data.csv", csv + "12x,12.png\n");
+  const auto bad =
+      test::RunFsp("eval --gt " + (dir / "seq").string() + " --est " + (dir / "run").string());
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("data.csv:42: expected t_ns,filename"), std::string::npos) << bad.err;
 }
 
 TEST(CmdEval, AbsentPartsGiveAbsentBlocks) {
@@ -143,8 +226,8 @@ TEST(CmdEval, AbsentPartsGiveAbsentBlocks) {
   std::filesystem::remove(dir / "run" / "map.json");
   std::filesystem::remove(dir / "run" / "run.json");
   const auto out = dir / "metrics.json";
-  const auto r = test::RunFsp("eval --gt " + (dir / "seq" / "mav0").string() + " --est " + (dir / "run").string() +
-                              " --align sim3 --out " + out.string());
+  const auto r = test::RunFsp("eval --gt " + (dir / "seq" / "mav0").string() + " --est " +
+                              (dir / "run").string() + " --align sim3 --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json m = ReadJson(out);
   EXPECT_TRUE(m.contains("trajectory"));
@@ -158,12 +241,15 @@ TEST(CmdEval, AbsentPartsGiveAbsentBlocks) {
 TEST(CmdEval, TumFilesAndPosYaw) {
   const auto dir = test::ScratchDir();
   MakeSequenceAndRun(dir / "seq", dir / "run");
-  // The ground truth as a plain EuRoC csv against itself converted to TUM: exact under any alignment.
-  const std::string gt = (dir / "seq" / "mav0" / "state_groundtruth_estimate0" / "data.csv").string();
+  // The ground truth as a plain EuRoC csv against itself converted to TUM: exact under any
+  // alignment.
+  const std::string gt =
+      (dir / "seq" / "mav0" / "state_groundtruth_estimate0" / "data.csv").string();
   std::vector<StampedPose> poses;
   for (const StateSample& s : ReadEurocGroundTruth(gt)) poses.push_back({s.t_ns, s.T_W_B});
   WriteTum(poses, (dir / "gt.tum").string());
-  const auto r = test::RunFsp("eval --gt " + gt + " --est " + (dir / "gt.tum").string() + " --align posyaw");
+  const auto r =
+      test::RunFsp("eval --gt " + gt + " --est " + (dir / "gt.tum").string() + " --align posyaw");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("40 pairs"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("posyaw"), std::string::npos) << r.out;
@@ -186,15 +272,21 @@ TEST(CmdEval, BadInputIsOneLineOnStderr) {
   WriteText(dir / "bad_map" / "map.json", "{\"objects\": [{\"id\": 1}]}");
   WriteText(dir / "bad_map" / "trajectory.tum", "");
   const Case cases[] = {
-      {"eval --gt " + seq + " --est " + (dir / "missing.tum").string(), "missing.tum: estimate not found"},
+      {"eval --gt " + seq + " --est " + (dir / "missing.tum").string(),
+       "missing.tum: estimate not found"},
       {"eval --gt " + (dir / "nope").string() + " --est " + run, "nope: ground truth not found"},
-      {"eval --gt " + seq + " --est " + (dir / "bad_row.tum").string(), "bad_row.tum:2: expected 8 columns"},
-      {"eval --gt " + seq + " --est " + (dir / "backwards.tum").string(), "backwards.tum:2: timestamp 1.0 goes backwards"},
+      {"eval --gt " + seq + " --est " + (dir / "bad_row.tum").string(),
+       "bad_row.tum:2: expected 8 columns"},
+      {"eval --gt " + seq + " --est " + (dir / "backwards.tum").string(),
+       "backwards.tum:2: timestamp 1.0 goes backwards"},
       {"eval --gt " + seq + " --est " + (dir / "far.tum").string(), "do not overlap in time"},
       {"eval --gt " + seq + " --est " + (dir / "two.tum").string(), "only 2 pose pairs"},
-      {"eval --gt " + seq + " --est " + (dir / "empty_dir").string(), "no run output in this folder"},
-      {"eval --gt " + (dir / "empty_dir").string() + " --est " + run, "no ground truth in this folder"},
-      {"eval --gt " + seq + " --est " + run + " --align yaw", "--align must be se3, posyaw or sim3"},
+      {"eval --gt " + seq + " --est " + (dir / "empty_dir").string(),
+       "no run output in this folder"},
+      {"eval --gt " + (dir / "empty_dir").string() + " --est " + run,
+       "no ground truth in this folder"},
+      {"eval --gt " + seq + " --est " + run + " --align yaw",
+       "--align must be se3, posyaw or sim3"},
       {"eval --gt " + seq + " --est " + (dir / "bad_map").string(), "no poses"},
   };
   for (const Case& c : cases) {

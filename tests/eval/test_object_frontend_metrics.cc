@@ -13,22 +13,24 @@
 namespace fsp::eval {
 namespace {
 
-std::string WriteText(const std::filesystem::path& dir, const std::string& name, const std::string& text) {
+std::string WriteText(const std::filesystem::path& dir, const std::string& name,
+                      const std::string& text) {
   const std::string path = (dir / name).string();
   std::ofstream(path) << text;
   return path;
 }
 
-// Ground truth: a door 1 m x 2 m and a window 1 m x 1 m on the wall y = 0, and a poster the map lacks.
+// Ground truth: a door 1 m x 2 m and a window 1 m x 1 m on the wall y = 0, and a poster the map
+// lacks.
 const char* kObjectsGt = R"({"objects": [
   {"id": 1, "class": "door", "corners_W": [[0,0,0],[1,0,0],[1,0,2],[0,0,2]], "width": 1.0, "height": 2.0},
   {"id": 2, "class": "window", "corners_W": [[2,0,1],[3,0,1],[3,0,2],[2,0,2]], "width": 1.0, "height": 1.0},
   {"id": 3, "class": "poster", "corners_W": [[4,0,1],[5,0,1],[5,0,2],[4,0,2]], "width": 1.0, "height": 1.0}
 ]})";
 
-// The map in the ground truth's own frame: the door shifted by (0.03, 0.04, 0) (every corner 0.05 m off),
-// 1.1 m wide (0.1 off) and 1.9 m high (0.1 off); the window exact but its third corner 0.6 m too high
-// and 1.3 m high (0.3 off); and an object (id 7) the ground truth does not have.
+// The map in the ground truth's own frame: the door shifted by (0.03, 0.04, 0) (every corner 0.05 m
+// off), 1.1 m wide (0.1 off) and 1.9 m high (0.1 off); the window exact but its third corner 0.6 m
+// too high and 1.3 m high (0.3 off); and an object (id 7) the ground truth does not have.
 struct MapObject {
   int id;
   std::array<Vec3, 4> corners;
@@ -36,9 +38,10 @@ struct MapObject {
 };
 std::vector<MapObject> HandMap() {
   const Vec3 d(0.03, 0.04, 0.0);
-  return {{1, {Vec3(0, 0, 0) + d, Vec3(1, 0, 0) + d, Vec3(1, 0, 2) + d, Vec3(0, 0, 2) + d}, 1.1, 1.9},
-          {2, {Vec3(2, 0, 1), Vec3(3, 0, 1), Vec3(3, 0, 2.6), Vec3(2, 0, 2)}, 1.0, 1.3},
-          {7, {Vec3(9, 0, 0), Vec3(10, 0, 0), Vec3(10, 0, 1), Vec3(9, 0, 1)}, 1.0, 1.0}};
+  return {
+      {1, {Vec3(0, 0, 0) + d, Vec3(1, 0, 0) + d, Vec3(1, 0, 2) + d, Vec3(0, 0, 2) + d}, 1.1, 1.9},
+      {2, {Vec3(2, 0, 1), Vec3(3, 0, 1), Vec3(3, 0, 2.6), Vec3(2, 0, 2)}, 1.0, 1.3},
+      {7, {Vec3(9, 0, 0), Vec3(10, 0, 0), Vec3(10, 0, 1), Vec3(9, 0, 1)}, 1.0, 1.0}};
 }
 
 // map.json of HandMap() expressed in another world: c_est = G⁻¹ c = Rᵀ (c − t) / s, sizes / s.
@@ -65,7 +68,8 @@ void ExpectHandComputedObjectErrors(const ObjectMetrics& m) {
   EXPECT_EQ(m.gt, 3u);
   EXPECT_EQ(m.estimated, 3u);
   EXPECT_EQ(m.matched, 2u);
-  // Corner errors: 0.05 x 4 (door), 0, 0, 0.6, 0 (window): mean 0.8 / 8 = 0.1, median (0.05 + 0.05) / 2.
+  // Corner errors: 0.05 x 4 (door), 0, 0, 0.6, 0 (window): mean 0.8 / 8 = 0.1, median (0.05 + 0.05)
+  // / 2.
   EXPECT_EQ(m.corner_err.count, 8u);
   EXPECT_NEAR(m.corner_err.mean, 0.1, 1e-9);
   EXPECT_NEAR(m.corner_err.median, 0.05, 1e-9);
@@ -96,15 +100,22 @@ TEST(ObjectMetrics, RigidAlignmentLeavesSizesAloneAndSim3ScalesThem) {
   G.R = RotFromRpy(0.2, -0.4, 1.3);
   G.t = Vec3(5.0, -1.0, 0.5);
   // SE3: the map lives in a rotated, shifted world; the same errors come out after alignment.
-  ExpectHandComputedObjectErrors(EvaluateObjects(gt, ReadObjectsJson(WriteText(dir, "se3.json", MapJson(G))), G));
+  ExpectHandComputedObjectErrors(
+      EvaluateObjects(gt, ReadObjectsJson(WriteText(dir, "se3.json", MapJson(G))), G));
   // Sim3 with s = 2.5: the map is 2.5 times too small, sizes too; scaled back they agree.
   G.mode = AlignMode::kSim3;
   G.scale = 2.5;
-  ExpectHandComputedObjectErrors(EvaluateObjects(gt, ReadObjectsJson(WriteText(dir, "sim3.json", MapJson(G))), G));
+  ExpectHandComputedObjectErrors(
+      EvaluateObjects(gt, ReadObjectsJson(WriteText(dir, "sim3.json", MapJson(G))), G));
   // Without the scale the sizes stay 2.5 times too small: the window's width 0.4 m instead of 1 m.
+  // (The objects are then metres off too, so only a wide gate pairs them; every map width is 0.4 or
+  // 0.44 m against 1 m, so the largest error is 0.6 m however they pair.)
   Alignment no_scale = G;
   no_scale.scale = 1.0;
-  const auto wrong = EvaluateObjects(gt, ReadObjectsJson(WriteText(dir, "sim3b.json", MapJson(G))), no_scale);
+  ObjectOptions wide;
+  wide.match_gate_m = 100.0;
+  const auto wrong = EvaluateObjects(gt, ReadObjectsJson(WriteText(dir, "sim3b.json", MapJson(G))),
+                                     no_scale, wide);
   EXPECT_NEAR(wrong.width_err.max, 0.6, 1e-9);
 }
 
@@ -121,23 +132,25 @@ TEST(ObjectMetrics, MalformedFilesAreClearErrors) {
   };
   expect_error("{\"objects\": [", "not valid JSON");
   expect_error("[1, 2]", "expected {\"objects\"");
-  expect_error(R"({"objects": [{"id": 1, "corners_W": [[0,0,0],[1,0,0],[1,0,1]], "width": 1, "height": 1}]})",
-               "corners_W");
-  expect_error(R"({"objects": [{"id": 4, "corners_W": [[0,0,0],[1,0,0],[1,0,1],[0,0,1]], "height": 1}]})",
-               "(id 4): missing \"width\"");
-  expect_error(R"({"objects": [{"id": 1, "corners_W": [[0,0,0],[1,0,0],[1,0,1],[0,0,1]], "width": 1, "height": 1},
+  expect_error(
+      R"({"objects": [{"id": 1, "corners_W": [[0,0,0],[1,0,0],[1,0,1]], "width": 1, "height": 1}]})",
+      "corners_W");
+  expect_error(
+      R"({"objects": [{"id": 4, "corners_W": [[0,0,0],[1,0,0],[1,0,1],[0,0,1]], "height": 1}]})",
+      "(id 4): missing \"width\"");
+  expect_error(
+      R"({"objects": [{"id": 1, "corners_W": [[0,0,0],[1,0,0],[1,0,1],[0,0,1]], "width": 1, "height": 1},
                                {"id": 1, "corners_W": [[0,0,0],[1,0,0],[1,0,1],[0,0,1]], "width": 1, "height": 1}]})",
-               "id repeated");
+      "id repeated");
 }
 
-// Front end. Ground truth (undistorted px; a = object 1, b = object 2 a 10 px square, c = object 3 partly
-// visible):
+// Front end. Ground truth (undistorted px; a = object 1, b = object 2 a 10 px square, c = object 3
+// partly visible):
 //   t=100: a, b, c(not fully visible)   t=200: a + (1, 0), b   t=300: a, b
 // Estimate:
-//   t=100: id 10 = a + (0.5, 0); id 20 = b with its corners listed from s2 (wrong order); id 99 far away
-//   t=200: id 10 = a + (1, 0) + (0, 1) (1.414 px off); b missed
-//   t=300: id 11 = a (an id switch for object 1); id 20 = b
-//   t=400: id 5 (no ground-truth frame at that time)
+//   t=100: id 10 = a + (0.5, 0); id 20 = b with its corners listed from s2 (wrong order); id 99 far
+//   away t=200: id 10 = a + (1, 0) + (0, 1) (1.414 px off); b missed t=300: id 11 = a (an id switch
+//   for object 1); id 20 = b t=400: id 5 (no ground-truth frame at that time)
 const char* kObservationsGt =
     "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4,fully_visible\n"
     "100,1,100,100,150,100,150,50,100,50,1\n"
@@ -170,8 +183,8 @@ TEST(FrontendMetrics, HandComputedRecallPrecisionCornersAndIdSwitches) {
   ASSERT_TRUE(m.recall && m.precision);
   EXPECT_DOUBLE_EQ(*m.recall, 5.0 / 6.0);
   EXPECT_DOUBLE_EQ(*m.precision, 5.0 / 7.0);
-  // Corner errors: 0.5 x4, 10 x4 (wrong order: each corner sits on its neighbour), sqrt(2) x4, 0 x8.
-  // Sorted, the 10th and 11th of 20 are both 0.5.
+  // Corner errors: 0.5 x4, 10 x4 (wrong order: each corner sits on its neighbour), sqrt(2) x4, 0
+  // x8. Sorted, the 10th and 11th of 20 are both 0.5.
   EXPECT_EQ(m.corner_err_px.count, 20u);
   EXPECT_NEAR(m.corner_err_px.median, 0.5, 1e-12);
   EXPECT_NEAR(m.corner_err_px.mean, (2.0 + 40.0 + 4.0 * std::sqrt(2.0)) / 20.0, 1e-12);
