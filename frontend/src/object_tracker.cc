@@ -138,6 +138,7 @@ struct ObjectTracker::Impl {
     cv::Mat ref;                    // reference patch, CV_32F, smoothed
     cv::Mat ref_valid;              // CV_8U, 1 where the reference was in view
     std::array<int, 4> side_sign = {0, 0, 0, 0};  // edge polarity per side, 0 = unknown
+    bool textured_interior = false;  // the reference's interior has structure (grey std >= 8)
     // State.
     Mat3 H = Mat3::Identity(), H_prev = Mat3::Identity();
     bool has_motion = false;        // H_prev valid (constant-velocity prediction)
@@ -266,11 +267,26 @@ struct ObjectTracker::Impl {
     return (sab - sa * sb / n) / std::sqrt(va2 * vb2);
   }
 
+  // NCC of the whole patch (object and margin ring); for an object with a textured interior
+  // also of the interior alone, and the lower of the two: the ring and the outline are alike for
+  // many objects (a light border on a wall), the interior tells them apart.
   double Appearance(const Object& ob, const std::vector<cv::Mat>& levels, const Mat3& H,
                     double* visible) const {
     cv::Mat patch, valid;
     *visible = Warp(ob, levels, H, &patch, &valid);
-    return Ncc(ob.ref, ob.ref_valid, patch, valid);
+    double ncc = Ncc(ob.ref, ob.ref_valid, patch, valid);
+    if (ob.textured_interior) {
+      const cv::Rect in = Interior(ob);
+      ncc = std::min(ncc, Ncc(ob.ref(in), ob.ref_valid(in), patch(in), valid(in)));
+    }
+    return ncc;
+  }
+
+  // The object part of the patch without its outer 15 % (away from the outline).
+  static cv::Rect Interior(const Object& ob) {
+    const int bx = std::max(1, static_cast<int>(0.15 * ob.w)),
+              by = std::max(1, static_cast<int>(0.15 * ob.h));
+    return cv::Rect(ob.mx + bx, ob.my + by, std::max(1, ob.w - 2 * bx), std::max(1, ob.h - 2 * by));
   }
 
   // Bounding box of a quad (distorted px) grown by `margin`, clipped to the image.
@@ -467,6 +483,9 @@ struct ObjectTracker::Impl {
       std::vector<cv::Mat> levels;
       cv::buildPyramid(gray, levels, 4);
       Warp(*ob, levels, H, &ob->ref, &ob->ref_valid);
+      cv::Scalar mean, sd;
+      cv::meanStdDev(ob->ref(Interior(*ob)), mean, sd);
+      ob->textured_interior = sd[0] >= 8.0;
       // Descriptors of the quad (grown by 2 px: corner features sit on the outline).
       ob->model_xy.clear();
       ob->model_desc = cv::Mat();
@@ -519,9 +538,10 @@ struct ObjectTracker::Impl {
     if (ob->model_desc.rows >= o.min_inliers &&
         (survived < o.recover_fraction * static_cast<double>(n) || survived < o.min_inliers)) {
       t.recovered = true;
+      // Search region: the predicted and the last quad, grown by the object's size.
       const Corners pc = CornersOf(*ob, H_pred);
       const double size = std::sqrt(Area(pc));
-      const cv::Rect r = Box(pc, 0.5 * size + 30.0);
+      const cv::Rect r = Box(pc, size + 30.0) | Box(CornersOf(*ob, ob->H), size + 30.0);
       if (r.width > 40 && r.height > 40) {
         std::vector<cv::KeyPoint> kps;
         cv::Mat desc;
@@ -573,8 +593,16 @@ struct ObjectTracker::Impl {
     // Edge refinement (the side polarities learnt at Start).
     EdgeRefinement e;
     Corners final_corners = kp_corners;
-    if (Refine(*ob, gray, kp_corners, !strong, &e) &&
-        (!strong || MaxCornerDistance(e.corners_undistorted, kp_corners) <= o.max_refine_shift_px)) {
+    // With a trusted keypoint homography, the edges refine it only for an object whose outline
+    // was found at Start (a known polarity per side): on an object without a clear outline (or
+    // one blurred at Start) an edge fit is noise that would drag the points with it.
+    const bool outline_known = ob->side_sign[0] != 0;
+    // After a recovery the matched homography is coarser (ORB keypoints of a pyramid level):
+    // the coarse pass runs and its shift is allowed.
+    const bool coarse = !strong || t.recovered;
+    const double max_shift = t.recovered ? o.coarse_search_px : o.max_refine_shift_px;
+    if ((!strong || outline_known) && Refine(*ob, gray, kp_corners, coarse, &e) &&
+        (!strong || MaxCornerDistance(e.corners_undistorted, kp_corners) <= max_shift)) {
       final_corners = e.corners_undistorted;
       t.edge_refined = true;
     }
@@ -639,9 +667,14 @@ struct ObjectTracker::Impl {
     ob->pt_img.swap(new_img);
     ob->H_prev = ob->H;
     ob->H = H_final;
-    ob->has_motion = true;
+    // Constant velocity only from a steady frame: after a recovery or a weak consensus the
+    // last motion may be a jump.
+    ob->has_motion = strong && !t.recovered;
     ++ob->frames_since_refresh;
-    const bool confident = t.appearance >= o.refresh_appearance && (t.edge_refined || strong);
+    // New points take their object-plane position from this frame's homography: only from a
+    // homography fixed by the edges, or by the flow alone for an object without a known outline.
+    const bool confident = t.appearance >= o.refresh_appearance &&
+                           (t.edge_refined || (!outline_known && strong && !t.recovered));
     if (confident && (ob->frames_since_refresh >= o.refresh_every ||
                       static_cast<int>(ob->pt_obj.size()) < o.max_points / 2)) {
       SeedPoints(ob, gray);
@@ -707,6 +740,7 @@ struct ObjectTracker::Impl {
         }
       }
       std::vector<uint8_t> good(p0.size(), 0);
+      const std::vector<cv::Point2f> p1_init = p1;
       if (!p0.empty()) {
         std::vector<uint8_t> st, st_back;
         std::vector<float> err;
@@ -718,10 +752,32 @@ struct ObjectTracker::Impl {
         cv::calcOpticalFlowPyrLK(pyr, prev_pyr, p1, back, st_back, err, win, o.lk_levels, crit,
                                  cv::OPTFLOW_USE_INITIAL_FLOW);
         const double fb2 = o.max_fb_error_px * o.max_fb_error_px;
+        auto check = [&](size_t k, const cv::Point2f& q, const cv::Point2f& b, bool ok) {
+          const cv::Point2f d = b - p0[k];
+          return ok && d.x * d.x + d.y * d.y <= fb2 && q.x >= 0 && q.y >= 0 &&
+                 q.x <= gray.cols - 1 && q.y <= gray.rows - 1;
+        };
+        std::vector<size_t> retry;
         for (size_t k = 0; k < p0.size(); ++k) {
-          const cv::Point2f d = back[k] - p0[k];
-          good[k] = st[k] && st_back[k] && d.x * d.x + d.y * d.y <= fb2 && p1[k].x >= 0 &&
-                    p1[k].y >= 0 && p1[k].x <= gray.cols - 1 && p1[k].y <= gray.rows - 1;
+          good[k] = check(k, p1[k], back[k], st[k] && st_back[k]);
+          if (!good[k] && cv::norm(p1_init[k] - p0[k]) > 2.0) retry.push_back(k);
+        }
+        // Points lost with a motion prediction get a second chance from where they were: the
+        // prediction is wrong when the motion stops or turns abruptly.
+        if (!retry.empty()) {
+          std::vector<cv::Point2f> q0, q1, qb;
+          for (const size_t k : retry) q0.push_back(p0[k]);
+          q1 = q0;
+          cv::calcOpticalFlowPyrLK(prev_pyr, pyr, q0, q1, st, err, win, o.lk_levels, crit,
+                                   cv::OPTFLOW_USE_INITIAL_FLOW);
+          qb = q0;
+          cv::calcOpticalFlowPyrLK(pyr, prev_pyr, q1, qb, st_back, err, win, o.lk_levels, crit,
+                                   cv::OPTFLOW_USE_INITIAL_FLOW);
+          for (size_t j = 0; j < retry.size(); ++j)
+            if (check(retry[j], q1[j], qb[j], st[j] && st_back[j])) {
+              good[retry[j]] = 1;
+              p1[retry[j]] = q1[j];
+            }
         }
       }
       const std::vector<cv::Mat> levels = Levels(pyr, true);

@@ -290,7 +290,7 @@ TEST(ObjectTracker, PlainRectangleIsCarriedByItsEdges) {
 
 TEST(ObjectTracker, MotionBlurredObjectIsStillTracked) {
   const cv::Mat tex = Texture(5);
-  const int n = 60;
+  const int n = 40;
   // 8 px per frame to the right and a little down, blurred over 9 px along the motion.
   auto corners = [&](int k) {
     return Pose(0.6, 0.45, Vec3(-0.9 + 0.048 * k, -0.1 + 0.008 * k, 3.0), 0.2, 0.1, 0.1);
@@ -400,13 +400,13 @@ TEST(ObjectTracker, TwoObjectsKeepTheirIds) {
   EXPECT_LE(sb.Median(), 0.5);
 }
 
-// A sudden jump (80 px between two frames, against the constant-velocity prediction): the flow
+// A sudden jump (170 px between two frames, against the constant-velocity prediction): the flow
 // loses the points, the model's descriptors find the object again.
 TEST(ObjectTracker, RecoversFromAJumpByDescriptorMatching) {
   const cv::Mat bg = Background();
   const cv::Mat tex = Texture(31);
   auto at = [&](int k) {
-    const double x = -0.3 + 0.01 * k + (k >= 10 ? 0.5 : 0.0);
+    const double x = -0.6 + 0.01 * k + (k >= 10 ? 1.0 : 0.0);
     return Pose(0.6, 0.45, Vec3(x, 0.0, 3.0), 0.1, 0.0, 0.0);
   };
   ObjectTracker tracker(Camera());

@@ -87,7 +87,7 @@ struct ObjectTrackerOptions {
   double min_edge_gradient = 3.0;
   // With a trusted keypoint homography, edge-refined corners are kept only when no corner moved
   // more than this from the homography's [px] (a side caught by a nearby edge is refused).
-  double max_refine_shift_px = 3.0;
+  double max_refine_shift_px = 2.0;
   // --- appearance check ---
   // Appearance check: least normalised cross-correlation between the reference patch and the frame
   // warped into it through the tracked homography [-1, 1]. Right homographies measured >= 0.88, an
