@@ -9,8 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
@@ -110,6 +108,7 @@ bool ObjectTrackerOptions::Check(std::string* why) const {
   if (max_points < 4) return fail("max_points must be >= 4");
   if (lk_window < 5 || lk_window % 2 == 0) return fail("lk_window must be odd and >= 5");
   if (lk_levels < 0 || lk_levels > 6) return fail("lk_levels must be in [0, 6]");
+  if (lk_iterations < 1) return fail("lk_iterations must be >= 1");
   if (!(max_fb_error_px > 0.0)) return fail("max_fb_error_px must be > 0");
   if (!(recover_fraction >= 0.0 && recover_fraction <= 1.0))
     return fail("recover_fraction must be in [0, 1]");
@@ -132,17 +131,17 @@ struct ObjectTracker::Impl {
     bool active = false;
     // Model: object-plane size (patch pixels without the margin) and margin.
     int w = 0, h = 0, mx = 0, my = 0;
-    Corners obj_corners;            // s1..s4 in the object plane
-    std::vector<Vec2> model_xy;     // descriptor keypoints in the object plane
-    cv::Mat model_desc;             // ORB descriptors (rows of model_xy)
-    cv::Mat ref;                    // reference patch, CV_32F, smoothed
-    cv::Mat ref_valid;              // CV_8U, 1 where the reference was in view
+    Corners obj_corners;                          // s1..s4 in the object plane
+    std::vector<Vec2> model_xy;                   // descriptor keypoints in the object plane
+    cv::Mat model_desc;                           // ORB descriptors (rows of model_xy)
+    cv::Mat ref;                                  // reference patch, CV_32F, smoothed
+    cv::Mat ref_valid;                            // CV_8U, 1 where the reference was in view
     std::array<int, 4> side_sign = {0, 0, 0, 0};  // edge polarity per side, 0 = unknown
     bool textured_interior = false;  // the reference's interior has structure (grey std >= 8)
     // State.
     Mat3 H = Mat3::Identity(), H_prev = Mat3::Identity();
-    bool has_motion = false;        // H_prev valid (constant-velocity prediction)
-    std::vector<Vec2> pt_obj;       // flow points in the object plane
+    bool has_motion = false;          // H_prev valid (constant-velocity prediction)
+    std::vector<Vec2> pt_obj;         // flow points in the object plane
     std::vector<cv::Point2f> pt_img;  // and in the last frame (distorted px)
     int frames_since_refresh = 0;
   };
@@ -352,9 +351,9 @@ struct ObjectTracker::Impl {
         if (m[x] && e[x] >= thr && e[x] >= d[x]) cand.emplace_back(e[x], cv::Point(x, y));
     }
     std::sort(cand.begin(), cand.end(), [](const auto& a, const auto& b) {
-      return a.first != b.first ? a.first > b.first
-                                : (a.second.y != b.second.y ? a.second.y < b.second.y
-                                                            : a.second.x < b.second.x);
+      return a.first != b.first
+                 ? a.first > b.first
+                 : (a.second.y != b.second.y ? a.second.y < b.second.y : a.second.x < b.second.x);
     });
     std::vector<cv::Point2f> out;
     const double d2 = min_dist * min_dist;
@@ -404,8 +403,8 @@ struct ObjectTracker::Impl {
     const cv::Rect r = Box(und, 0.0);
     if (r.width < 8 || r.height < 8) return;
     const cv::Mat mask = QuadMask(und, r, 2);
-    const double min_dist = std::clamp(std::sqrt(static_cast<double>(r.area()) / o.max_points) *
-                                           0.5, 3.0, 12.0);
+    const double min_dist =
+        std::clamp(std::sqrt(static_cast<double>(r.area()) / o.max_points) * 0.5, 3.0, 12.0);
     const std::vector<cv::Point2f> found = Corners2D(gray(r), mask, min_dist);
     const Mat3 Hinv = ob->H.inverse();
     const double min_d2 = min_dist * min_dist;
@@ -444,8 +443,8 @@ struct ObjectTracker::Impl {
       RectDetectorOptions co = o.refine;
       co.search_px = o.coarse_search_px;
       if (!smooth_near(start, co.search_px)) return false;
-      const EdgeRefinement e = RefineCornersOnEdges(smooth, cam, start, o.min_edge_gradient, co,
-                                                    ob.side_sign);
+      const EdgeRefinement e =
+          RefineCornersOnEdges(smooth, cam, start, o.min_edge_gradient, co, ob.side_sign);
       if (!e.ok) return false;
       start = e.corners_undistorted;
     }
@@ -506,9 +505,6 @@ struct ObjectTracker::Impl {
       ob->side_sign = {0, 0, 0, 0};
       EdgeRefinement e;
       if (Refine(*ob, gray, corners, false, &e)) ob->side_sign = e.side_sign;
-      if (std::getenv("FSP_TRK_DEBUG"))
-        std::fprintf(stderr, "start %d refine ok %d kps %d pts %zu\n", ob->id, e.ok,
-                     ob->model_desc.rows, ob->pt_obj.size());
     }
     SeedPoints(ob, gray);
     ob->active = true;
@@ -570,7 +566,38 @@ struct ObjectTracker::Impl {
     int inliers = 0;
     if (obj_pts.size() >= 4) {
       std::vector<uint8_t> mask;
-      const cv::Mat Hcv = cv::findHomography(obj_pts, img_pts, cv::RANSAC, o.ransac_px, mask, 500);
+      cv::Mat Hcv;
+      // Cheap path first (most frames: flow points only, nearly all right): a least-squares fit
+      // to all points; when >= 90 % of them lie within ransac_px it is refitted to those and
+      // RANSAC is not needed (~5x cheaper). Otherwise, or after a recovery, RANSAC.
+      if (!t.recovered && obj_pts.size() >= 8) {
+        const double r2 = o.ransac_px * o.ransac_px;
+        for (int pass = 0; pass < 2; ++pass) {
+          std::vector<cv::Point2f> a, b;
+          for (size_t k = 0; k < obj_pts.size(); ++k)
+            if (pass == 0 || mask[k]) {
+              a.push_back(obj_pts[k]);
+              b.push_back(img_pts[k]);
+            }
+          Hcv = cv::findHomography(a, b, 0);
+          if (Hcv.empty()) break;
+          const cv::Matx33d Hm(Hcv);
+          mask.assign(obj_pts.size(), 0);
+          size_t n_in = 0;
+          for (size_t k = 0; k < obj_pts.size(); ++k) {
+            const cv::Vec3d q = Hm * cv::Vec3d(obj_pts[k].x, obj_pts[k].y, 1.0);
+            const double dx = q[0] / q[2] - img_pts[k].x, dy = q[1] / q[2] - img_pts[k].y;
+            mask[k] = dx * dx + dy * dy <= r2;
+            n_in += mask[k];
+          }
+          if (n_in < 0.9 * obj_pts.size()) {
+            Hcv = cv::Mat();
+            break;
+          }
+        }
+      }
+      if (Hcv.empty())
+        Hcv = cv::findHomography(obj_pts, img_pts, cv::RANSAC, o.ransac_px, mask, 500);
       if (!Hcv.empty()) {
         Mat3 Hk;
         for (int a = 0; a < 3; ++a)
@@ -613,10 +640,6 @@ struct ObjectTracker::Impl {
       H_final = H;
     }
     bool lost = !strong && !t.edge_refined;
-    if (std::getenv("FSP_TRK_DEBUG"))
-      std::fprintf(stderr, "id %d n %zu surv %d flow %d match %zu inl %d strong %d refined %d ok %d\n",
-                   ob->id, n, survived, n_flow, obj_pts.size() - n_flow, inliers, strong,
-                   t.edge_refined, e.ok);
     double visible = 0.0;
     if (!lost) {
       t.appearance = Appearance(*ob, levels, H_final, &visible);
@@ -636,8 +659,8 @@ struct ObjectTracker::Impl {
       t.corners_px[i] = d;
       t.in_view = t.in_view && camera.InImage(d);
     }
-    const double a = std::clamp((t.appearance - o.min_appearance) / (1.0 - o.min_appearance + 1e-9),
-                                0.0, 1.0);
+    const double a =
+        std::clamp((t.appearance - o.min_appearance) / (1.0 - o.min_appearance + 1e-9), 0.0, 1.0);
     t.score = 0.5 * a + 0.25 * (t.edge_refined ? 1.0 : 0.0) +
               0.25 * std::min(1.0, inliers / (2.0 * o.min_inliers));
     // Next frame's points: the correspondences that agree with the final homography (flow points
@@ -744,12 +767,17 @@ struct ObjectTracker::Impl {
       if (!p0.empty()) {
         std::vector<uint8_t> st, st_back;
         std::vector<float> err;
-        const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
+        const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                    o.lk_iterations, 0.03);
         const cv::Size win(o.lk_window, o.lk_window);
+        // The backward pass starts from where the point was (the answer a correct forward match
+        // gives), so it needs no coarse levels: one level above the image absorbs a forward error
+        // of a few pixels and anything worse fails the check anyway.
+        const int back_levels = std::min(1, o.lk_levels);
         cv::calcOpticalFlowPyrLK(prev_pyr, pyr, p0, p1, st, err, win, o.lk_levels, crit,
                                  cv::OPTFLOW_USE_INITIAL_FLOW);
         std::vector<cv::Point2f> back = p0;
-        cv::calcOpticalFlowPyrLK(pyr, prev_pyr, p1, back, st_back, err, win, o.lk_levels, crit,
+        cv::calcOpticalFlowPyrLK(pyr, prev_pyr, p1, back, st_back, err, win, back_levels, crit,
                                  cv::OPTFLOW_USE_INITIAL_FLOW);
         const double fb2 = o.max_fb_error_px * o.max_fb_error_px;
         auto check = [&](size_t k, const cv::Point2f& q, const cv::Point2f& b, bool ok) {
@@ -771,7 +799,7 @@ struct ObjectTracker::Impl {
           cv::calcOpticalFlowPyrLK(prev_pyr, pyr, q0, q1, st, err, win, o.lk_levels, crit,
                                    cv::OPTFLOW_USE_INITIAL_FLOW);
           qb = q0;
-          cv::calcOpticalFlowPyrLK(pyr, prev_pyr, q1, qb, st_back, err, win, o.lk_levels, crit,
+          cv::calcOpticalFlowPyrLK(pyr, prev_pyr, q1, qb, st_back, err, win, back_levels, crit,
                                    cv::OPTFLOW_USE_INITIAL_FLOW);
           for (size_t j = 0; j < retry.size(); ++j)
             if (check(retry[j], q1[j], qb[j], st[j] && st_back[j])) {
@@ -841,7 +869,9 @@ bool ObjectTracker::Resume(int id, const cv::Mat& gray, const Corners& corners_u
   return true;
 }
 
-void ObjectTracker::Drop(int id) { impl_->objects.erase(id); }
+void ObjectTracker::Drop(int id) {
+  impl_->objects.erase(id);
+}
 
 std::vector<int> ObjectTracker::ActiveIds() const {
   std::vector<int> ids;

@@ -1,6 +1,6 @@
-// Multi-object rectangle tracker, CMT in spirit (Nebehay & Pflugfelder, "Consensus-based Matching and
-// Tracking of Keypoints for Object Tracking", WACV 2014), but made for planar rectangles: the output
-// is the object's four corners, not a box.
+// Multi-object rectangle tracker, CMT in spirit (Nebehay & Pflugfelder, "Consensus-based Matching
+// and Tracking of Keypoints for Object Tracking", WACV 2014), but made for planar rectangles: the
+// output is the object's four corners, not a box.
 //
 // Model of one object (built by Start from one view): keypoints inside its quad with binary
 // descriptors, stored in object-plane coordinates (through the homography of its corners), and a
@@ -9,13 +9,13 @@
 //
 // Per frame (Track): forward-backward pyramidal optical flow of each object's keypoints from the
 // previous frame, plus descriptor matching against the model where flow is short of points;
-// consensus by a robust homography fit (object plane -> image; a rectangle is planar, so its corners
-// follow exactly); the corners refined on the image edges with the detector's refinement
+// consensus by a robust homography fit (object plane -> image; a rectangle is planar, so its
+// corners follow exactly); the corners refined on the image edges with the detector's refinement
 // (edge_refine.h); where keypoints are few (a plain door), the predicted quad (caller's prediction,
-// or the last motion) refined on the edges carries the corners. Last, the appearance check: the frame
-// warped into the reference view through the new homography is compared with the reference patch by
-// normalised cross-correlation; below `min_appearance` the object is reported lost, so no corners
-// are reported for an object that is not there.
+// or the last motion) refined on the edges carries the corners. Last, the appearance check: the
+// frame warped into the reference view through the new homography is compared with the reference
+// patch by normalised cross-correlation; below `min_appearance` the object is reported lost, so no
+// corners are reported for an object that is not there.
 //
 // Pixels: the tracker works on the distorted image as stored; its interface speaks undistorted
 // pixels (the back end's), converted through the camera given at construction.
@@ -60,8 +60,11 @@ struct ObjectTrackerOptions {
   double min_corner_gradient = 4.0;
   // LK window [px] and pyramid levels above the full image (level 3: motion up to ~60 px/frame
   // beyond the prediction).
-  int lk_window = 15;
+  int lk_window = 11;
   int lk_levels = 3;
+  // LK iterations per level (stops earlier below 0.03 px of update). Fewer: faster, less accurate
+  // under large prediction errors.
+  int lk_iterations = 10;
   // Forward-backward error above which a flow point is dropped [px].
   double max_fb_error_px = 1.0;
   // Descriptor matching runs when fewer than this fraction of the points tracked into the frame
