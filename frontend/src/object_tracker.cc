@@ -144,6 +144,7 @@ struct ObjectTracker::Impl {
     std::vector<Vec2> pt_obj;         // flow points in the object plane
     std::vector<cv::Point2f> pt_img;  // and in the last frame (distorted px)
     int frames_since_refresh = 0;
+    int seeded = 0;  // flow points right after the last seeding
   };
 
   PinholeRadtan camera;
@@ -507,6 +508,7 @@ struct ObjectTracker::Impl {
       if (Refine(*ob, gray, corners, false, &e)) ob->side_sign = e.side_sign;
     }
     SeedPoints(ob, gray);
+    ob->seeded = static_cast<int>(ob->pt_obj.size());
     ob->active = true;
     return true;
   }
@@ -699,8 +701,9 @@ struct ObjectTracker::Impl {
     const bool confident = t.appearance >= o.refresh_appearance &&
                            (t.edge_refined || (!outline_known && strong && !t.recovered));
     if (confident && (ob->frames_since_refresh >= o.refresh_every ||
-                      static_cast<int>(ob->pt_obj.size()) < o.max_points / 2)) {
+                      2 * static_cast<int>(ob->pt_obj.size()) < ob->seeded)) {
       SeedPoints(ob, gray);
+      ob->seeded = static_cast<int>(ob->pt_obj.size());
       ob->frames_since_refresh = 0;
     } else {
       // Corners always follow the final quad.

@@ -54,7 +54,7 @@ struct ObjectTrackerOptions {
   // --- optical flow ---
   // Flow points kept per object (Shi-Tomasi corners inside the quad plus its four corners). More:
   // a steadier consensus, linear cost.
-  int max_points = 80;
+  int max_points = 50;
   // Least gradient of a flow point's weaker structure direction [grey levels / px, rms over 5x5].
   // Below, pixel noise on a plain surface would be taken for texture.
   double min_corner_gradient = 4.0;
