@@ -438,6 +438,30 @@ TEST(ObjectTracker, RecoversFromAJumpByDescriptorMatching) {
   EXPECT_TRUE(recovered);
 }
 
+// The same jump with the caller's prediction (e.g. from the IMU), 1 px off: no recovery needed.
+TEST(ObjectTracker, FollowsTheCallersPrediction) {
+  const cv::Mat bg = Background();
+  const cv::Mat tex = Texture(31);
+  auto at = [&](int k) {
+    const double x = -0.6 + 0.01 * k + (k >= 5 ? 1.0 : 0.0);
+    return Pose(0.6, 0.45, Vec3(x, 0.0, 3.0), 0.1, 0.0, 0.0);
+  };
+  ObjectTracker tracker(Camera());
+  cv::Mat img = Render(bg, {{tex, at(0)}}, 1);
+  ASSERT_TRUE(tracker.Start(4, img, at(0)));
+  for (int k = 1; k < 10; ++k) {
+    img = Render(bg, {{tex, at(k)}}, 1 + k);
+    Corners pred = at(k);
+    for (Vec2& c : pred) c += Vec2(1.0, -0.7);
+    const auto r = tracker.Track(img, {{4, pred}});
+    const TrackedObject* t = Find(r, 4);
+    ASSERT_TRUE(t && t->tracked) << "frame " << k;
+    EXPECT_FALSE(t->recovered) << "frame " << k;
+    for (int i = 0; i < 4; ++i)
+      EXPECT_LT((t->corners_undistorted[i] - at(k)[i]).norm(), 1.0) << "frame " << k;
+  }
+}
+
 TEST(ObjectTracker, RejectsBadStartsAndUnknownIds) {
   const cv::Mat img = Render(Background(), {}, 1);
   ObjectTracker tracker(Camera());
