@@ -1,6 +1,6 @@
-// Multi-object rectangle tracker, CMT in spirit (Nebehay & Pflugfelder, "Consensus-based Matching and
-// Tracking of Keypoints for Object Tracking", WACV 2014), but made for planar rectangles: the output
-// is the object's four corners, not a box.
+// Multi-object rectangle tracker, CMT in spirit (Nebehay & Pflugfelder, "Consensus-based Matching
+// and Tracking of Keypoints for Object Tracking", WACV 2014), but made for planar rectangles: the
+// output is the object's four corners, not a box.
 //
 // Model of one object (built by Start from one view): keypoints inside its quad with binary
 // descriptors, stored in object-plane coordinates (through the homography of its corners), and a
@@ -9,13 +9,13 @@
 //
 // Per frame (Track): forward-backward pyramidal optical flow of each object's keypoints from the
 // previous frame, plus descriptor matching against the model where flow is short of points;
-// consensus by a robust homography fit (object plane -> image; a rectangle is planar, so its corners
-// follow exactly); the corners refined on the image edges with the detector's refinement
+// consensus by a robust homography fit (object plane -> image; a rectangle is planar, so its
+// corners follow exactly); the corners refined on the image edges with the detector's refinement
 // (edge_refine.h); where keypoints are few (a plain door), the predicted quad (caller's prediction,
-// or the last motion) refined on the edges carries the corners. Last, the appearance check: the frame
-// warped into the reference view through the new homography is compared with the reference patch by
-// normalised cross-correlation; below `min_appearance` the object is reported lost, so no corners
-// are reported for an object that is not there.
+// or the last motion) refined on the edges carries the corners. Last, the appearance check: the
+// frame warped into the reference view through the new homography is compared with the reference
+// patch by normalised cross-correlation; below `min_appearance` the object is reported lost, so no
+// corners are reported for an object that is not there.
 //
 // Pixels: the tracker works on the distorted image as stored; its interface speaks undistorted
 // pixels (the back end's), converted through the camera given at construction.
@@ -38,13 +38,72 @@
 namespace fsp::frontend {
 
 struct ObjectTrackerOptions {
-  // (Fields: each with unit, default and trade-off, as in RectDetectorOptions.)
+  // --- model (Start) ---
+  // Longest side of the object part of the reference patch [px of the patch]; the other side
+  // follows the quad's aspect. Larger: finer appearance check, slower warp.
+  int patch_size = 48;
+  // Ring of the surroundings included in the reference patch on each side [fraction of the
+  // object's width / height]. A plain object (a white door) has no structure of its own: its
+  // outline against the surroundings is what the appearance check compares. 0: the object only.
+  double appearance_margin = 0.125;
+  // Quads with a side shorter than this are not started [px].
+  double min_side_px = 16.0;
+  // Descriptors of the model (ORB in the quad at Start), matched when optical flow loses the
+  // object (fast motion). More: better recovery, slower recovery frames.
+  int model_keypoints = 300;
+  // --- optical flow ---
+  // Flow points kept per object (Shi-Tomasi corners inside the quad plus its four corners). More:
+  // a steadier consensus, linear cost.
+  int max_points = 50;
+  // Least gradient of a flow point's weaker structure direction [grey levels / px, rms over 5x5].
+  // Below, pixel noise on a plain surface would be taken for texture.
+  double min_corner_gradient = 4.0;
+  // LK window [px] and pyramid levels above the full image (level 3: motion up to ~60 px/frame
+  // beyond the prediction).
+  int lk_window = 11;
+  int lk_levels = 3;
+  // LK iterations per level (stops earlier below 0.03 px of update). Fewer: faster, less accurate
+  // under large prediction errors.
+  int lk_iterations = 10;
+  // Forward-backward error above which a flow point is dropped [px].
+  double max_fb_error_px = 1.0;
+  // Descriptor matching runs when fewer than this fraction of the points tracked into the frame
+  // survive the flow (and the model has descriptors).
+  double recover_fraction = 0.5;
+  // Lowe's ratio of the best to the second best Hamming distance for a model match.
+  double match_ratio = 0.8;
+  // --- consensus ---
+  // RANSAC inlier distance of the object-plane -> image homography [undistorted px].
+  double ransac_px = 2.0;
+  // Inliers for a keypoint homography to be trusted on its own [points]; with fewer (a plain
+  // object) the prediction refined on the edges carries the corners, and an object whose edges are
+  // not found either is lost.
+  int min_inliers = 10;
+  // --- edge refinement ---
+  // Edge refinement of the tracked corners (the detector's refinement options are used).
+  RectDetectorOptions refine;
+  // Edge search of a first, coarse refinement pass when the keypoints did not fix the quad (a plain
+  // object moving on the prediction) [px]; the fine pass (refine.search_px) follows. Larger: more
+  // capture range, more risk of jumping to a parallel edge (the side's polarity guards).
+  double coarse_search_px = 6.0;
+  // Least edge gradient for an edge point [grey levels / px].
+  double min_edge_gradient = 3.0;
+  // With a trusted keypoint homography, edge-refined corners are kept only when no corner moved
+  // more than this from the homography's [px] (a side caught by a nearby edge is refused).
+  double max_refine_shift_px = 2.0;
+  // --- appearance check ---
   // Appearance check: least normalised cross-correlation between the reference patch and the frame
   // warped into it through the tracked homography [-1, 1]. Right homographies measured >= 0.88, an
   // object that left the view <= 0.46.
   double min_appearance = 0.7;
-  // Edge refinement of the tracked corners (the detector's refinement options are used).
-  RectDetectorOptions refine;
+  // Least fraction of the reference patch that must be in the image; below, the object is lost
+  // (it is leaving the view).
+  double min_visible = 0.6;
+  // --- refresh ---
+  // Every this many frames, on a confident frame (appearance >= refresh_appearance and edge-refined
+  // or a trusted homography), new flow points are found inside the tracked quad [frames].
+  int refresh_every = 8;
+  double refresh_appearance = 0.85;
   bool Check(std::string* why) const;
 };
 
@@ -55,6 +114,8 @@ struct TrackedObject {
   Corners corners_undistorted;  // s1..s4, undistorted px (valid when tracked)
   Corners corners_px;           // s1..s4, distorted image px (valid when tracked)
   int keypoints = 0;            // consensus size (homography inliers)
+  bool in_view = false;         // all four corners inside the image (valid when tracked)
+  bool recovered = false;       // descriptor matching against the model was run in this frame
   bool edge_refined = false;    // corners came from the edge refinement
   double appearance = 0.0;      // NCC of the appearance check
   double score = 0.0;           // confidence in [0, 1]
