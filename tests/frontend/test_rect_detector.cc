@@ -341,8 +341,8 @@ namespace {
 //    contrast, so the bottom side is taken on the frame's inner edge (still a match: within 10 % of
 //    the shortest side).
 //  - 26.4 s: door 1 and window 2 found (corner error median 0.08 px, max 0.77 px); tag 31 (46 px)
-//  is reported by the
-//    outline of its white margin (58 px) instead of its black square: one miss, one false positive.
+//    is reported by the outline of its white margin (58 px) instead of its black square: one miss,
+//    one false positive.
 //    Tag 30 (22 px) is below the 32 px minimum side.
 TEST(RectDetector, RenderedGoldenFrames) {
   const std::string dir = FSP_FRONTEND_TEST_DATA;
