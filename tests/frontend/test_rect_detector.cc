@@ -131,6 +131,28 @@ TEST(RectDetector, DeterministicAcrossCalls) {
       EXPECT_EQ(a.detections[i].corners_px[k], b.detections[i].corners_px[k]);
 }
 
+// The debug vectors are filled only when asked for, and asking changes no detection.
+TEST(RectDetector, DebugOutputOnlyWhenAsked) {
+  const test::SyntheticFrame fr = test::MakeSyntheticFrame(11);
+  RectDetector::Options o;
+  const auto plain = RectDetector(o).Detect(fr.image);
+  EXPECT_TRUE(plain.segment_ends.empty());
+  EXPECT_TRUE(plain.hypothesis_quads.empty());
+  EXPECT_TRUE(plain.verified_quads.empty());
+  o.debug = true;
+  const auto dbg = RectDetector(o).Detect(fr.image);
+  EXPECT_EQ(static_cast<int>(dbg.segment_ends.size()), dbg.segments);
+  EXPECT_EQ(static_cast<int>(dbg.hypothesis_quads.size()), dbg.hypotheses);
+  EXPECT_GE(dbg.verified_quads.size(), dbg.detections.size());
+  ASSERT_GT(plain.detections.size(), 0u);
+  ASSERT_EQ(plain.detections.size(), dbg.detections.size());
+  for (size_t i = 0; i < plain.detections.size(); ++i) {
+    EXPECT_EQ(plain.detections[i].score, dbg.detections[i].score);
+    for (int k = 0; k < 4; ++k)
+      EXPECT_EQ(plain.detections[i].corners_px[k], dbg.detections[i].corners_px[k]);
+  }
+}
+
 TEST(RectDetector, OptionsCheck) {
   RectDetector::Options o;
   std::string why;
@@ -318,8 +340,9 @@ namespace {
 //    0.13 px, but 3.7 px at cabinet 8's bottom corners: its dark frame meets the dark floor without
 //    contrast, so the bottom side is taken on the frame's inner edge (still a match: within 10 % of
 //    the shortest side).
-//  - 26.4 s: door 1 and window 2 found (corner error median 0.08 px, max 0.77 px); tag 31 (46 px) is reported by the
-//    outline of its white margin (58 px) instead of its black square: one miss, one false positive.
+//  - 26.4 s: door 1 and window 2 found (corner error median 0.08 px, max 0.77 px); tag 31 (46 px)
+//    is reported by the outline of its white margin (58 px) instead of its black square: one miss,
+//    one false positive.
 //    Tag 30 (22 px) is below the 32 px minimum side.
 TEST(RectDetector, RenderedGoldenFrames) {
   const std::string dir = FSP_FRONTEND_TEST_DATA;
@@ -330,8 +353,10 @@ TEST(RectDetector, RenderedGoldenFrames) {
     int detections, eligible, found, true_positives;
     double median_px, max_px;
   };
-  for (const Expected& e : {Expected{32250000000, 4, 4, 4, 4, 0.2, 4.0}, Expected{26400000000, 3, 3, 2, 2, 0.3, 1.0}}) {
-    const cv::Mat img = cv::imread(dir + "/rendered_room_" + std::to_string(e.t_ns) + ".png", cv::IMREAD_GRAYSCALE);
+  for (const Expected& e :
+       {Expected{32250000000, 4, 4, 4, 4, 0.2, 4.0}, Expected{26400000000, 3, 3, 2, 2, 0.3, 1.0}}) {
+    const cv::Mat img =
+        cv::imread(dir + "/rendered_room_" + std::to_string(e.t_ns) + ".png", cv::IMREAD_GRAYSCALE);
     ASSERT_FALSE(img.empty()) << e.t_ns;
     std::vector<CornerRow> frame_gt;
     for (const CornerRow& r : gt)
@@ -340,9 +365,11 @@ TEST(RectDetector, RenderedGoldenFrames) {
     const MatchStats s = MatchFrame(dets, frame_gt);
     ASSERT_FALSE(s.corner_err_px.empty());
     const double max_err = *std::max_element(s.corner_err_px.begin(), s.corner_err_px.end());
-    std::printf("golden %lld: %zu detections, %d/%d eligible found, corner error median %.3f px, max %.3f px\n",
-                static_cast<long long>(e.t_ns), dets.size(), s.gt_eligible_found, s.gt_eligible,
-                s.ErrorQuantile(0.5), max_err);
+    std::printf(
+        "golden %lld: %zu detections, %d/%d eligible found, corner error median %.3f px, max %.3f "
+        "px\n",
+        static_cast<long long>(e.t_ns), dets.size(), s.gt_eligible_found, s.gt_eligible,
+        s.ErrorQuantile(0.5), max_err);
     EXPECT_EQ(static_cast<int>(dets.size()), e.detections) << e.t_ns;
     EXPECT_EQ(s.gt_eligible, e.eligible) << e.t_ns;
     EXPECT_EQ(s.gt_eligible_found, e.found) << e.t_ns;

@@ -229,6 +229,12 @@ struct RectDetectorOptions {
   // At most this many detections, best score first (0: no limit).
   int max_detections = 0;
 
+  // --- diagnostics ---
+  // Fill the Result's debug vectors (segment_ends, hypothesis_quads, verified_quads). Off: they
+  // stay empty, which saves copying up to `max_hypotheses` quads per call; the detections are the
+  // same either way.
+  bool debug = false;
+
   bool Check(std::string* why) const;
 };
 
@@ -241,11 +247,11 @@ class RectDetector {
     std::vector<Detection> detections;  // best score first
     StageTimes times;                   // edges, segments, group, refine, verify, nms
     int segments = 0;                   // after merging
-    std::vector<std::pair<Vec2, Vec2>>
-        segment_ends;                       // merged segments (undistorted px), for debugging
-    int hypotheses = 0;                     // quads from grouping
-    int refined = 0;                        // quads that survived refinement
-    std::vector<Corners> hypothesis_quads;  // grouping's quads (undistorted px), for debugging
+    int hypotheses = 0;                 // quads from grouping
+    int refined = 0;                    // quads that survived refinement
+    // Only with Options::debug (else empty):
+    std::vector<std::pair<Vec2, Vec2>> segment_ends;  // merged segments (undistorted px)
+    std::vector<Corners> hypothesis_quads;            // grouping's quads (undistorted px)
     std::vector<std::pair<Corners, double>>
         verified_quads;  // before suppression, with score (incl. margin probes)
     double canny_low = 0.0, canny_high = 0.0;  // thresholds used (Sobel magnitude units)

@@ -1,0 +1,99 @@
+// Stage 3 of the rectangle detector: junctions at segment ends, then quadrilateral hypotheses as
+// 4-cycles of segments joined at junctions.
+#include <algorithm>
+#include <cmath>
+
+#include "fsp/frontend/rect_geometry.h"
+#include "rect_internal.h"
+
+namespace fsp::frontend::rect_internal {
+namespace {
+
+// Which end of s the point x (on s's line) is a corner for, or -1. Beyond the end by up to gap,
+// inside the segment by up to overshoot.
+int JunctionEnd(const Seg& s, const Vec2& x, const RectDetectorOptions& o) {
+  const double t = (x - s.a).dot(s.dir);
+  const double beyond = t < 0.5 * s.len ? -t : t - s.len;  // > 0: x lies past that end
+  const int end = t < 0.5 * s.len ? 0 : 1;
+  if (beyond >= 0.0) return beyond <= o.junction_gap_frac * s.len + o.junction_slack_px ? end : -1;
+  return -beyond <= o.junction_overshoot_frac * s.len + o.junction_slack_px ? end : -1;
+}
+
+// A curved segment meets another one with the piece at its nearer end (0: a, 1: b).
+int NearEnd(const Seg& s1, const Seg& s2) {
+  const double da = std::min((s1.a - s2.a).squaredNorm(), (s1.a - s2.b).squaredNorm());
+  const double db = std::min((s1.b - s2.a).squaredNorm(), (s1.b - s2.b).squaredNorm());
+  return da <= db ? 0 : 1;
+}
+
+}  // namespace
+
+SegmentJunctions FindJunctions(const std::vector<Seg>& segs, const RectDetectorOptions& o) {
+  const int ns = static_cast<int>(segs.size());
+  SegmentJunctions ends(ns);
+  std::vector<Line> seg_lines(ns);
+  for (int i = 0; i < ns; ++i) seg_lines[i] = LineOf(segs[i]);
+  const double min_sin = std::sin(o.min_corner_angle_deg * M_PI / 180.0);
+  // Compact copies of what the pair loop's cheap rejections read (the segments themselves carry
+  // their polylines: a cache miss per pair).
+  struct SegEnds {
+    Vec2 a, b, dir;
+    double len;
+  };
+  std::vector<SegEnds> se(ns);
+  for (int i = 0; i < ns; ++i) se[i] = {segs[i].a, segs[i].b, segs[i].dir, segs[i].len};
+  for (int i = 0; i < ns; ++i)
+    for (int j = i + 1; j < ns; ++j) {
+      const SegEnds &si = se[i], &sj = se[j];
+      const double s = std::abs(si.dir.x() * sj.dir.y() - si.dir.y() * sj.dir.x());
+      if (s < min_sin) continue;
+      // Cheap rejection: the nearest endpoints must be within reach of both junction tolerances.
+      const double reach = (o.junction_gap_frac + o.junction_overshoot_frac) * (si.len + sj.len) +
+                           2.0 * o.junction_slack_px;
+      const double dmin2 = std::min({(si.a - sj.a).squaredNorm(), (si.a - sj.b).squaredNorm(),
+                                     (si.b - sj.a).squaredNorm(), (si.b - sj.b).squaredNorm()});
+      if (dmin2 > reach * reach) continue;
+      const int ni = segs[i].path.empty() ? -1 : NearEnd(segs[i], segs[j]);
+      const int nj = segs[j].path.empty() ? -1 : NearEnd(segs[j], segs[i]);
+      Vec2 x;
+      if (!Intersect(ni < 0 ? seg_lines[i] : EndLine(segs[i], ni),
+                     nj < 0 ? seg_lines[j] : EndLine(segs[j], nj), &x))
+        continue;
+      const int ei = JunctionEnd(segs[i], x, o);
+      if (ei < 0 || (ni >= 0 && ei != ni)) continue;
+      const int ej = JunctionEnd(segs[j], x, o);
+      if (ej < 0 || (nj >= 0 && ej != nj)) continue;
+      ends[i][ei].push_back({j, ej, x});
+      ends[j][ej].push_back({i, ei, x});
+    }
+  return ends;
+}
+
+std::vector<Quad> FindQuads(const SegmentJunctions& ends, double min_side, int max_quads) {
+  const int ns = static_cast<int>(ends.size());
+  std::vector<Quad> quads;
+  for (int a = 0; a < ns && static_cast<int>(quads.size()) < max_quads; ++a)
+    for (const Junction& jb : ends[a][1]) {
+      const int b = jb.seg;
+      if (b <= a) continue;
+      for (const Junction& jc : ends[b][1 - jb.end]) {
+        const int c = jc.seg;
+        if (c <= a || c == b) continue;
+        for (const Junction& jd : ends[c][1 - jc.end]) {
+          const int d = jd.seg;
+          if (d <= a || d == b || d == c) continue;
+          for (const Junction& ja : ends[d][1 - jd.end]) {
+            if (ja.seg != a || ja.end != 0) continue;
+            Quad q;
+            q.c = {jb.x, jc.x, jd.x, ja.x};
+            q.seg = {a, b, c, d};
+            if (!IsConvex(q.c) || ShortestSide(q.c) < min_side) continue;
+            quads.push_back(q);
+          }
+        }
+      }
+    }
+  return quads;
+}
+
+}  // namespace fsp::frontend::rect_internal

@@ -1,0 +1,350 @@
+// Stage 5 of the rectangle detector: verification of the refined quads (rectangle test, corners in
+// view), the L-corner tests (T-junction, corner reach), grey-level statistics of margins and rings,
+// and the class guess of the detections.
+#include <algorithm>
+#include <cmath>
+
+#include "fsp/frontend/rect_geometry.h"
+#include "rect_internal.h"
+
+namespace fsp::frontend::rect_internal {
+namespace {
+
+// T-junction test (RectDetectorOptions::max_side_continuation): does the edge of a side run on past
+// the corner `corner`? `u` is the side's direction pointing out of the quad at that corner, `edge`
+// its polarity and strength along the side (polarity relative to the left normal of u_side, where
+// u_side is the side's own direction from its first to its last corner; `flip` says whether u is
+// -u_side). Edge points are searched on the side's line extended beyond the corner, from
+// `continuation_start_px` over `continuation_frac` x the side's length; a point supports the
+// continuation when the gradient peak has the side's polarity, at least half its median gradient,
+// and lies within ransac_inlier_px + 0.5 px of the extended line. Returns the supported fraction of
+// the samples inside the image (0 when fewer than 3 are).
+double SideContinuation(const EdgeProbe& probe, const Vec2& corner, const Vec2& u, bool flip,
+                        double length, const SideEdge& edge) {
+  const RectDetectorOptions& o = probe.o;
+  const Vec2 n_side = flip ? Vec2(u.y(), -u.x()) : Vec2(-u.y(), u.x());  // left normal of u_side
+  const double span = o.continuation_frac * length;
+  // One sample per 2 px (at least 4, at most 12): a corner a few pixels from the image border still
+  // gets samples in view.
+  const int kSamples = std::clamp(static_cast<int>(span / 2.0), 4, 12);
+  // Support counts in runs of consecutive samples (the longest run): an edge that runs on is
+  // continuous, scattered hits (text, texture beyond the corner) are not.
+  // The edge point at distance t beyond the corner along u, on the extended line.
+  auto on_line = [&](double t) {
+    const Vec2 p = corner + t * u;
+    Vec2 e;
+    double gradient;
+    int sg;
+    return probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign) &&
+           std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+  };
+  // Two consecutive hits extend a run only when the edge is also found between them at least every
+  // `continuation_step_px`: an edge that runs on is continuous, while the ends of text strokes or
+  // texture that happen to line up with the side leave gaps between the (sparse) samples.
+  const double step = span / kSamples;
+  const int n_between = o.continuation_step_px > 0.0
+                            ? static_cast<int>(std::ceil(step / o.continuation_step_px)) - 1
+                            : 0;
+  int valid = 0, run = 0, longest = 0;
+  for (int k = 0; k < kSamples; ++k) {
+    const double t = o.continuation_start_px + span * (k + 0.5) / kSamples;
+    const Vec2 p = corner + t * u;
+    Vec2 e;
+    double gradient;
+    int sg;
+    if (!probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign)) {
+      // Outside the image is not evidence either way; no edge inside is evidence against.
+      if (probe.Searchable(p)) {
+        ++valid;
+        run = 0;
+      }
+      continue;
+    }
+    ++valid;
+    if (std::abs(n_side.dot(e - p)) > o.ransac_inlier_px + 0.5) {
+      run = 0;
+      continue;
+    }
+    bool continuous = run > 0;
+    for (int j = 1; continuous && j <= n_between; ++j)
+      continuous = on_line(t - step + step * j / (n_between + 1));
+    run = continuous ? run + 1 : 1;
+    longest = std::max(longest, run);
+  }
+  return valid >= 3 ? static_cast<double>(longest) / valid : 0.0;
+}
+
+// Corner reach test (RectDetectorOptions::min_corner_reach): the fraction of points on a side's
+// line between `reach_start_px` and max(reach_min_px, reach_frac x length) from the corner
+// `corner` (u points from the corner into the side) where the side's edge is found (same criteria
+// as SideContinuation). 1 when fewer than 3 points are inside the image.
+double CornerReach(const EdgeProbe& probe, const Vec2& corner, const Vec2& u, bool flip,
+                   double length, const SideEdge& edge) {
+  const RectDetectorOptions& o = probe.o;
+  const Vec2 n_side = flip ? Vec2(u.y(), -u.x()) : Vec2(-u.y(), u.x());
+  const double t0 = o.reach_start_px, t1 = std::max(o.reach_min_px, o.reach_frac * length);
+  constexpr int kSamples = 6;
+  int valid = 0, support = 0;
+  for (int k = 0; k < kSamples; ++k) {
+    const Vec2 p = corner + (t0 + (t1 - t0) * k / (kSamples - 1)) * u;
+    Vec2 e;
+    double gradient;
+    int sg;
+    if (!probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign)) {
+      valid += probe.Searchable(p) ? 1 : 0;
+      continue;
+    }
+    ++valid;
+    support += std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+  }
+  if (valid < 3) return 1.0;
+  return static_cast<double>(support) / valid;
+}
+
+// Mean and standard deviation of the grey values on an n x n grid of the quad's interior (bilinear
+// map of the unit square, shrunk by `shrink` towards the centre) or of a ring just outside it
+// (scale > 1).
+void QuadStats(const cv::Mat& img, const Corners& px, double scale, double* mean, double* stddev) {
+  const Vec2 centre = 0.25 * (px[0] + px[1] + px[2] + px[3]);
+  double s = 0.0, s2 = 0.0;
+  int n = 0;
+  const int g = 8;
+  for (int i = 0; i < g; ++i)
+    for (int j = 0; j < g; ++j) {
+      if (scale > 1.0 && i > 0 && i < g - 1 && j > 0 && j < g - 1)
+        continue;  // ring: border cells only
+      const double a = (i + 0.5) / g, b = (j + 0.5) / g;
+      const Vec2 p =
+          (1 - a) * (1 - b) * px[0] + a * (1 - b) * px[1] + a * b * px[2] + (1 - a) * b * px[3];
+      const Vec2 ps = centre + scale * (p - centre);
+      double v;
+      if (!Bilinear(img, ps.x(), ps.y(), &v)) continue;
+      s += v;
+      s2 += v * v;
+      ++n;
+    }
+  if (n == 0) {
+    *mean = *stddev = -1.0;
+    return;
+  }
+  *mean = s / n;
+  *stddev = std::sqrt(std::max(0.0, s2 / n - *mean * *mean));
+}
+
+// Mean and standard deviation of the grey values along the outline of the quad scaled by `scale`
+// about its centre (< 1: a ring inside it, > 1: outside), 8 points per side; optionally the
+// largest of the four sides' means.
+void RingStats(const cv::Mat& img, const Corners& px, double scale, double* mean, double* stddev,
+               double* max_side_mean = nullptr) {
+  const Vec2 centre = 0.25 * (px[0] + px[1] + px[2] + px[3]);
+  double s = 0.0, s2 = 0.0;
+  int n = 0;
+  if (max_side_mean) *max_side_mean = -1.0;
+  for (int i = 0; i < 4; ++i) {
+    double side_sum = 0.0;
+    int side_n = 0;
+    for (int k = 0; k < 8; ++k) {
+      const Vec2 p = px[i] + ((k + 0.5) / 8.0) * (px[(i + 1) % 4] - px[i]);
+      const Vec2 ps = centre + scale * (p - centre);
+      double v;
+      if (!Bilinear(img, ps.x(), ps.y(), &v)) continue;
+      s += v;
+      s2 += v * v;
+      ++n;
+      side_sum += v;
+      ++side_n;
+    }
+    if (max_side_mean && side_n > 0) *max_side_mean = std::max(*max_side_mean, side_sum / side_n);
+  }
+  if (n == 0) {
+    *mean = *stddev = -1.0;
+    return;
+  }
+  *mean = s / n;
+  *stddev = std::sqrt(std::max(0.0, s2 / n - *mean * *mean));
+}
+
+// Class cues (see README of the front end): metric aspect h/w from Zhang-He, brightness against
+// the surroundings, interior texture. Statistics on the smoothed image at the distorted corners
+// `px`.
+ObjectClass GuessClass(const cv::Mat& smooth, const Corners& px, double aspect_w_h) {
+  double in_mean, in_std, out_mean, out_std;
+  QuadStats(smooth, px, 0.8, &in_mean, &in_std);
+  QuadStats(smooth, px, 1.25, &out_mean, &out_std);
+  const double h_over_w = 1.0 / aspect_w_h;
+  //  - door: tall (metric h/w 1.7..3.2), not strongly textured;
+  //  - window: much brighter than its surroundings (> 30 grey levels: daylight; mullions
+  //  allowed);
+  //  - poster: otherwise a strongly textured interior (grey-level std > 30: print, pattern);
+  //    (a white calibration board on a dark background is therefore called a window);
+  //  - cabinet is never guessed from one image (a cabinet front looks like a wall panel);
+  //  - otherwise unknown.
+  //  - tag (a fiducial without its id: use the AprilTag front end for ids): square-ish, a
+  //    plain dark ring just inside the outline (the black border, 1/8 of the side: sampled at
+  //    scale 0.875) inside a plain bright ring just outside it (the white margin, scale
+  //    1.125), > 60 grey levels apart, and a patterned interior;
+  //  - window: brighter than its surroundings (> 30 grey levels) with a frame: the ring just
+  //    inside the outline (scale 0.95) darker than the interior on every side;
+  //  - a bright interior without such a frame is a poster (a print on the wall).
+  double ring_in, ring_in_std, ring_out, ring_out_std, frame, frame_std, frame_max;
+  RingStats(smooth, px, 0.875, &ring_in, &ring_in_std);
+  RingStats(smooth, px, 1.125, &ring_out, &ring_out_std);
+  RingStats(smooth, px, 0.95, &frame, &frame_std, &frame_max);
+  const double tag_contrast = ring_out - ring_in;
+  const bool tag_like = ring_in >= 0.0 && ring_out >= 0.0 && tag_contrast > 60.0 &&
+                        ring_in_std < 0.25 * tag_contrast && ring_out_std < 0.25 * tag_contrast &&
+                        in_std > 30.0 && h_over_w >= 0.67 && h_over_w <= 1.5;
+  if (tag_like) return ObjectClass::kTag;
+  if (h_over_w >= 1.7 && h_over_w <= 3.2 && in_std < 40.0) return ObjectClass::kDoor;
+  if (out_mean >= 0.0 && in_mean - out_mean > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5)
+    return frame >= 0.0 && frame_max < in_mean - 20.0 ? ObjectClass::kWindow : ObjectClass::kPoster;
+  if (in_std > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) return ObjectClass::kPoster;
+  return ObjectClass::kUnknown;
+}
+
+}  // namespace
+
+double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int rows) {
+  double outside = 0.0;
+  for (const Vec2& x : c) {
+    const Vec2 d = cam ? cam->DistortPixel(x) : x;
+    outside = std::max({outside, -d.x(), -d.y(), d.x() - (cols - 1), d.y() - (rows - 1)});
+  }
+  return outside;
+}
+
+// True when some corner of the refined quad is not an L-corner: a side continues past it (see
+// SideContinuation; a T-junction, where the object runs on and another line such as a panel
+// groove, a mullion or texture crosses it), or a side's edge stops short of it (see CornerReach; a
+// quad closed by a line a little beyond the object, such as the outer edge of a tag's white
+// margin with the black square's other three sides).
+bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges) {
+  for (int side = 0; side < 4; ++side) {
+    const Vec2 P = c[(side + 3) % 4], Q = c[side];
+    const double L = (Q - P).norm();
+    const Vec2 u = (Q - P) / L;
+    const Vec2 us = edges[side].curved ? edges[side].dir_start : u;
+    const Vec2 ue = edges[side].curved ? edges[side].dir_end : u;
+    if (probe.o.min_corner_reach > 0.0 &&
+        (CornerReach(probe, Q, -ue, true, L, edges[side]) < probe.o.min_corner_reach ||
+         CornerReach(probe, P, us, false, L, edges[side]) < probe.o.min_corner_reach))
+      return true;
+    if (SideContinuation(probe, Q, ue, false, L, edges[side]) > probe.o.max_side_continuation ||
+        SideContinuation(probe, P, -us, true, L, edges[side]) > probe.o.max_side_continuation)
+      return true;
+  }
+  return false;
+}
+
+bool IsLCornered(const EdgeProbe& probe, const Quad& q) {
+  return !(probe.o.max_side_continuation < 1.0 || probe.o.min_corner_reach > 0.0) ||
+         !HasTJunction(probe, q.c_grouping, q.edges);
+}
+
+// Bright margin test (RectDetectorOptions::prefer_inner_of_bright_margin) for an outer quad and a
+// nested inner one (undistorted px, any start corner, same orientation). Per side, at points p
+// along the inner side (t in [0.15, 0.85], away from the corners), the ring's width h is the
+// distance from p along the side's outward normal n to the matching outer side's line; the ring is
+// sampled at p + n h/2, the strip inside the inner outline at p − n h/2 (for a tag the black border
+// is as wide as the white margin) and the surroundings at p + 1.5 n h. Sides where the outlines
+// coincide (h < `margin_min_width_px`: a variant closed by lines of both outlines, a margin cut off
+// by the image border) and samples outside the image are skipped; at least one side's worth must
+// remain. Grey values on the smoothed image at the distorted positions.
+bool IsBrightMargin(const cv::Mat& smooth, const PinholeRadtan* cam, const Corners& outer,
+                    const Corners& inner, const RectDetectorOptions& o) {
+  int shift = 0;
+  CornerDistanceBestShift(outer, inner, &shift);
+  const Vec2 centre = 0.25 * (inner[0] + inner[1] + inner[2] + inner[3]);
+  constexpr int kPerSide = 12;
+  double sum[3] = {0, 0, 0}, sum2[3] = {0, 0, 0};
+  int n = 0;
+  for (int i = 0; i < 4; ++i) {
+    const Vec2 &i0 = inner[(i + shift) % 4], &i1 = inner[(i + 1 + shift) % 4];
+    const Line outer_line = LineOf(MakeSeg(outer[i], outer[(i + 1) % 4]));
+    const Vec2 u = (i1 - i0).normalized();
+    Vec2 nrm(-u.y(), u.x());
+    if (nrm.dot(i0 - centre) < 0.0) nrm = -nrm;  // outward
+    const double cos_n = outer_line.n.dot(nrm);
+    if (std::abs(cos_n) < 0.5) continue;  // sides not roughly parallel: not matching sides
+    for (int k = 0; k < kPerSide; ++k) {
+      const double t = 0.15 + 0.7 * (k + 0.5) / kPerSide;
+      const Vec2 p = i0 + t * (i1 - i0);
+      // p + h nrm lies on the outer line: outer_line.n · (p + h nrm) = outer_line.c.
+      const double h = (outer_line.c - outer_line.n.dot(p)) / cos_n;
+      if (h < o.margin_min_width_px) continue;
+      const Vec2 at[3] = {p - 0.5 * h * nrm, p + 0.5 * h * nrm, p + 1.5 * h * nrm};
+      double v[3];
+      bool ok = true;
+      for (int j = 0; j < 3 && ok; ++j) {
+        const Vec2 q = cam ? cam->DistortPixel(at[j]) : at[j];
+        ok = Bilinear(smooth, q.x(), q.y(), &v[j]);
+      }
+      if (!ok) continue;
+      for (int j = 0; j < 3; ++j) {
+        sum[j] += v[j];
+        sum2[j] += v[j] * v[j];
+      }
+      ++n;
+    }
+  }
+  if (n < kPerSide) return false;  // less than one side's worth of ring
+  double mean[3], sd[3];
+  for (int j = 0; j < 3; ++j) {
+    mean[j] = sum[j] / n;
+    sd[j] = std::sqrt(std::max(0.0, sum2[j] / n - mean[j] * mean[j]));
+  }
+  // The ring is brighter than the inner strip (clearly) and than the surroundings (an edge), and
+  // both the ring and the inner strip are plain.
+  const double contrast = mean[1] - mean[0];
+  return contrast >= o.margin_min_contrast && mean[1] - mean[2] >= o.min_edge_contrast &&
+         sd[1] <= o.margin_max_texture * contrast && sd[0] <= o.margin_max_texture * contrast;
+}
+
+void VerifyQuads(std::vector<Quad>& refined, const EdgeProbe& probe, const Mat3& K,
+                 const Vec3* gravity_C, double probe_side, std::vector<Quad>* good,
+                 std::vector<Quad>* cut_off) {
+  const RectDetectorOptions& o = probe.o;
+  for (Quad& q : refined) {
+    if (ShortestSide(q.c) < probe_side) continue;
+    q.c_grouping = q.c;
+    q.c = CanonicalOrder(q.c, &K, gravity_C);
+    const RectangleTest t = ZhangHeTest(q.c, K);
+    if (!t.valid || t.abs_cos > o.max_abs_cos) continue;
+    q.aspect_w_h = t.aspect_12_14;
+    if (q.aspect_w_h > o.max_aspect || q.aspect_w_h < 1.0 / o.max_aspect) continue;
+    q.abs_cos = t.abs_cos;
+    q.score *= 1.0 - 0.5 * t.abs_cos / o.max_abs_cos;
+    q.area = std::abs(SignedArea(q.c));
+    // Every corner must be seen: a corner outside the image is an extrapolation of sides that run
+    // out of the view (the object is cut off; its fourth side is some other line).
+    const double outside = CornerOutside(q.c, probe.cam, probe.smooth.cols, probe.smooth.rows);
+    if (outside > o.max_corner_outside_px) {
+      // A rectangle cut off by the image border by a little (a door whose bottom corners are just
+      // out of view) is not reported, but what lies inside it (the door leaf, its panels) is part
+      // of it: kept to suppress those.
+      if (outside <= o.container_outside_frac * ShortestSide(q.c)) cut_off->push_back(q);
+      continue;
+    }
+    // The costliest test (every corner an L-corner) is left to the suppression stage, which runs
+    // it only on quads that would be kept or would replace a kept one, and on margin probes only
+    // when one would mark a margin.
+    good->push_back(q);
+  }
+}
+
+std::vector<Detection> MakeDetections(const std::vector<Quad>& quads, const EdgeProbe& probe) {
+  const PinholeRadtan* cam = probe.cam;
+  std::vector<Detection> dets;
+  for (const Quad& q : quads) {
+    Detection det;
+    det.corners_undistorted = q.c;
+    for (int i = 0; i < 4; ++i) det.corners_px[i] = cam ? cam->DistortPixel(q.c[i]) : q.c[i];
+    det.score = q.score;
+    if (probe.o.guess_class)
+      det.object_class = GuessClass(probe.smooth, det.corners_px, q.aspect_w_h);
+    dets.push_back(det);
+  }
+  return dets;
+}
+
+}  // namespace fsp::frontend::rect_internal
