@@ -191,11 +191,12 @@ const TrackedObject* Find(const std::vector<TrackedObject>& r, int id) {
 struct Score {
   int frames = 0, tracked = 0, within2 = 0;
   std::vector<double> errors;  // every corner
-  double worst = 0.0;
+  double worst = 0.0, min_appearance = 1.0;
   void Add(const TrackedObject* t, const Corners& truth) {
     ++frames;
     if (!t || !t->tracked) return;
     ++tracked;
+    min_appearance = std::min(min_appearance, t->appearance);
     double m = 0.0;
     for (int i = 0; i < 4; ++i) {
       const double e = (t->corners_undistorted[i] - truth[i]).norm();
@@ -215,8 +216,8 @@ struct Score {
   void Print(const char* name, double ms_per_frame) const {
     std::printf(
         "[tracker] %s: %d frames, tracked %d, all corners <= 2 px in %.1f %%, median %.3f px, "
-        "worst %.2f px, %.2f ms CPU per frame\n",
-        name, frames, tracked, 100.0 * Success(), Median(), worst, ms_per_frame);
+        "worst %.2f px, least NCC %.3f, %.2f ms CPU per frame\n",
+        name, frames, tracked, 100.0 * Success(), Median(), worst, min_appearance, ms_per_frame);
   }
 };
 
@@ -375,6 +376,8 @@ TEST(ObjectTracker, LostWhenLeavingTheViewThenReidentifiedAndResumed) {
   EXPECT_EQ(tracker.ActiveIds(), std::vector<int>({1, 2}));
 }
 
+// A textured and a plain object moving towards each other; in the last ~10 frames the plain one
+// (drawn last) covers part of the textured one: its NCC falls (0.79 measured) but it stays tracked.
 TEST(ObjectTracker, TwoObjectsKeepTheirIds) {
   const cv::Mat bg = Background();
   const cv::Mat ta = Texture(21);
