@@ -146,7 +146,8 @@ class ObjectTracker {
                                    const std::map<int, Corners>& predicted = {});
 
   // Appearance of candidate corners (undistorted px, s1..s4) in `gray` against object `id`'s model
-  // (active or dormant): the NCC of the appearance check [-1, 1], or nullopt for an unknown id.
+  // (active or dormant): the NCC of the appearance check [-1, 1] (-1 when less than min_visible
+  // of the patch is in view or the quad is not convex), or nullopt for an unknown id.
   // Used to re-identify a returning object.
   std::optional<double> Similarity(int id, const cv::Mat& gray, const Corners& corners) const;
 
