@@ -41,6 +41,8 @@ bool FrontEndOptions::Check(std::string* why) const {
   if (!(reid_min_similarity_predicted >= -1.0 && reid_min_similarity_predicted <= 1.0))
     return fail("reid_min_similarity_predicted must be in [-1, 1]");
   if (!(tag_crop_margin_frac >= 0.0)) return fail("tag_crop_margin_frac must be >= 0");
+  if (!(correct_px > 0.0)) return fail("correct_px must be > 0");
+  if (tag_scan_every < 0) return fail("tag_scan_every must be >= 0");
   if (first_rect_id < 0) return fail("first_rect_id must be >= 0");
   std::string sub;
   if (!rect.Check(&sub)) return fail("rect: " + sub);
@@ -120,6 +122,7 @@ struct FrontEnd::Impl {
   int next_rect_id = 0;
   int frame_index = 0;
   int last_detect_frame = -1000000;
+  int last_tag_scan = -1000000;
   bool lost_last_frame = false;
 
   Impl(const PinholeRadtan& cam, const FrontEndOptions& o)
@@ -132,7 +135,12 @@ struct FrontEnd::Impl {
           c.decimate = 1.0;
           return c;
         }()),
-        tracker(cam, o.tracker),
+        tracker(cam,
+                [&] {
+                  ObjectTrackerOptions t = o.tracker;
+                  t.refine = o.rect;  // one set of refinement options for detector and tracker
+                  return t;
+                }()),
         next_rect_id(o.first_rect_id) {}
 
   // AprilTag decoding of the tag-like rectangles: the crop around each is given to the AprilTag
@@ -176,6 +184,29 @@ struct FrontEnd::Impl {
     const Vec3* gravity = prediction.gravity_C ? &*prediction.gravity_C : nullptr;
     std::vector<Detection> dets = rect.Detect(gray, &camera, gravity).detections;
     DecodeTags(gray, o, &dets);
+    if (o.tag_scan_every > 0 && frame_index - last_tag_scan >= o.tag_scan_every) {
+      last_tag_scan = frame_index;
+      // Tags found by the scan replace the rectangles that are the same quad (decoded or not) and
+      // are added where the rectangle detector saw nothing.
+      for (const Detection& t : tags.Detect(gray, &camera).detections) {
+        const double gate = std::max(3.0, o.match_gate_frac * ShortestSide(t.corners_px));
+        bool replaced = false;
+        for (Detection& d : dets)
+          if (MeanCornerDistance(d.corners_px, t.corners_px) <= gate) {
+            d = t;
+            replaced = true;
+          }
+        if (!replaced) dets.push_back(t);
+      }
+      // The same tag twice (replaced twice): keep the first.
+      std::vector<Detection> unique;
+      for (const Detection& d : dets) {
+        bool dup = false;
+        for (const Detection& u : unique) dup = dup || (d.tag_id >= 0 && u.tag_id == d.tag_id);
+        if (!dup) unique.push_back(d);
+      }
+      dets = std::move(unique);
+    }
     return dets;
   }
 
@@ -185,7 +216,7 @@ struct FrontEnd::Impl {
     int best_id = -1;
     double best_sim = -2.0;
     for (const auto& [id, info] : objects) {
-      if (info.active || !info.confirmed || info.class_votes.count(ObjectClass::kTag)) continue;
+      if (info.active || !info.confirmed) continue;
       double need = o.reid_min_similarity;
       for (const auto& [pid, pc] : prediction.objects)
         if (pid == id &&
@@ -243,6 +274,7 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
     ObjectInfo& info = m.objects[t.id];
     if (t.tracked) {
       info.last = t.corners_undistorted;
+      if (!t.in_view) continue;  // tracked on, but a corner out of the image is not observed
       tracked[t.id] = t.corners_undistorted;
       score[t.id] = t.score;
       continue;
@@ -329,7 +361,19 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
     if (used[p.det] || track_matched[p.id]) continue;
     used[p.det] = true;
     track_matched[p.id] = true;
-    vote(m.objects[p.id], dets[p.det]);
+    ObjectInfo& info = m.objects[p.id];
+    vote(info, dets[p.det]);
+    // The detection's corners in the track's order; far from the track's: the track is corrected.
+    int shift = 0;
+    MeanCornerDistance(tracked[p.id], dets[p.det].corners_undistorted, &shift);
+    const Corners c = Shifted(dets[p.det].corners_undistorted, shift);
+    double worst = 0.0;
+    for (int j = 0; j < 4; ++j) worst = std::max(worst, (c[j] - tracked[p.id][j]).norm());
+    if (worst > o.correct_px && m.tracker.Resume(p.id, gray, c)) {
+      tracked[p.id] = c;
+      info.last = c;
+      ++result.corrected;
+    }
   }
   for (size_t i = 0; i < dets.size(); ++i) {
     if (used[i]) continue;
@@ -342,6 +386,7 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
     if (on_live) continue;
     Corners corners;
     int id = m.Reidentify(gray, d, prediction, o, &corners);
+    if (id < 0 && d.object_class == ObjectClass::kTag) continue;  // an undecoded tag starts nothing
     if (id >= 0) {
       if (!m.tracker.Resume(id, gray, corners)) continue;
       ++result.reidentified;

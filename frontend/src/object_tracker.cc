@@ -858,7 +858,8 @@ std::optional<double> ObjectTracker::Similarity(int id, const cv::Mat& gray,
   cv::buildPyramid(gray, levels, 4);
   double visible = 0.0;
   const double ncc = impl_->Appearance(ob, levels, H, &visible);
-  return visible > 0.0 ? ncc : -1.0;
+  // As in Track: an object mostly out of view has no appearance to compare (-1).
+  return visible >= impl_->o.min_visible ? ncc : -1.0;
 }
 
 bool ObjectTracker::Resume(int id, const cv::Mat& gray, const Corners& corners_undistorted) {

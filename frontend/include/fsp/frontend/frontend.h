@@ -13,7 +13,10 @@
 //     object (and produces observations) only once detected again in `confirm_detections` detection
 //     runs while tracked in between. A candidate lost before that is forgotten; a lost object goes
 //     dormant.
-//  4. emit: one observation per confirmed object tracked in this frame.
+//     A tag-like rectangle that no tag decoding names only resumes a dormant object by appearance;
+//     it starts nothing (a tag's identity is its id).
+//  4. emit: one observation per confirmed object tracked in this frame with its four corners in
+//  view.
 //
 // Identities: an AprilTag's id is its object id; plain rectangles get ids from `first_rect_id` up,
 // never reused. Classes: the most frequent class guess of an object's detections.
@@ -62,6 +65,15 @@ struct FrontEndOptions {
   // which then needs only `reid_min_similarity_predicted`.
   double reid_gate_frac = 0.5;
   double reid_min_similarity_predicted = 0.3;
+  // A detection matched to a track whose corners differ from the track's by more than this (largest
+  // corner distance) [px] replaces the track's corners (the tracker resumes from them, keeping its
+  // model): the detector's corners are the better measurement, and a track that slid onto a nearby
+  // edge (a window's inner frame) is put back. Larger trusts the tracker more.
+  double correct_px = 2.0;
+  // DetectorKind::kRect: the whole frame is also scanned for AprilTags every this many frames (at a
+  // frame where the rectangle detector runs) [frames]: tags too small for the rectangle detector's
+  // minimum side are found this way. 0: never (tags then come only from tag-like rectangles).
+  int tag_scan_every = 6;
   // AprilTag decoding of tag-like rectangles (DetectorKind::kRect): the crop around the rectangle
   // passed to the AprilTag detector extends past its bounding box by this fraction of its size.
   double tag_crop_margin_frac = 0.3;
@@ -81,6 +93,7 @@ struct FrontEndResult {
   int candidates = 0;    // unconfirmed objects being tracked after this frame
   int started = 0;       // objects confirmed in this frame
   int reidentified = 0;  // dormant objects resumed in this frame
+  int corrected = 0;     // tracks put onto a detection's corners
   int lost = 0;          // objects lost in this frame
 };
 
