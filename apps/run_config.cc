@@ -110,6 +110,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.reid_gate_frac", &f.reid_gate_frac, kNonNegative},
       {"frontend.reid_min_similarity_predicted", &f.reid_min_similarity_predicted, kNonNegative},
       {"frontend.correct_px", &f.correct_px, kNonNegative},
+      {"frontend.border_margin_px", &f.border_margin_px, kNonNegative},
       {"frontend.tag_scan_every", &f.tag_scan_every, kNonNegative},
       {"frontend.tag_crop_margin_frac", &f.tag_crop_margin_frac, kNonNegative},
       {"frontend.first_rect_id", &f.first_rect_id, kNonNegative},

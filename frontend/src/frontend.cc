@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <set>
 
 #include <opencv2/core.hpp>
 
@@ -42,6 +43,7 @@ bool FrontEndOptions::Check(std::string* why) const {
     return fail("reid_min_similarity_predicted must be in [-1, 1]");
   if (!(tag_crop_margin_frac >= 0.0)) return fail("tag_crop_margin_frac must be >= 0");
   if (!(correct_px > 0.0)) return fail("correct_px must be > 0");
+  if (!(border_margin_px >= 0.0)) return fail("border_margin_px must be >= 0");
   if (tag_scan_every < 0) return fail("tag_scan_every must be >= 0");
   if (first_rect_id < 0) return fail("first_rect_id must be >= 0");
   std::string sub;
@@ -210,6 +212,17 @@ struct FrontEnd::Impl {
     return dets;
   }
 
+  // Whether every corner of D is at least `border_margin_px` inside the image: near the border the
+  // detector may have closed the quad with an inner edge (the object's own side just out of view).
+  bool AwayFromBorder(const Detection& d, const FrontEndOptions& o) const {
+    for (const Vec2& c : d.corners_px)
+      if (c.x() < o.border_margin_px || c.y() < o.border_margin_px ||
+          c.x() > camera.width - 1 - o.border_margin_px ||
+          c.y() > camera.height - 1 - o.border_margin_px)
+        return false;
+    return true;
+  }
+
   // A dormant object that detection D is a view of, with the corner order that fits it; -1 if none.
   int Reidentify(const cv::Mat& gray, const Detection& d, const FramePrediction& prediction,
                  const FrontEndOptions& o, Corners* corners) const {
@@ -269,13 +282,15 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
       if (info.active) predicted[id] = RotateCorners(info.last, m.K, *prediction.R_Cprev_Ccur);
   std::map<int, Corners> tracked;  // this frame's corners of the live objects
   std::map<int, double> score;     // their confidence (tracker or detector)
+  std::set<int> out_of_view;       // ... of which a corner is outside the image
   bool lost_now = false;
   for (const TrackedObject& t : m.tracker.Track(gray, predicted)) {
     ObjectInfo& info = m.objects[t.id];
     if (t.tracked) {
       info.last = t.corners_undistorted;
-      if (!t.in_view) continue;  // tracked on, but a corner out of the image is not observed
       tracked[t.id] = t.corners_undistorted;
+      // Tracked on, but a corner out of the image is not observed: no observation.
+      if (!t.in_view) out_of_view.insert(t.id);
       score[t.id] = t.score;
       continue;
     }
@@ -369,7 +384,8 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
     const Corners c = Shifted(dets[p.det].corners_undistorted, shift);
     double worst = 0.0;
     for (int j = 0; j < 4; ++j) worst = std::max(worst, (c[j] - tracked[p.id][j]).norm());
-    if (worst > o.correct_px && m.tracker.Resume(p.id, gray, c)) {
+    if (worst > o.correct_px && m.AwayFromBorder(dets[p.det], o) &&
+        m.tracker.Resume(p.id, gray, c)) {
       tracked[p.id] = c;
       info.last = c;
       ++result.corrected;
@@ -410,6 +426,7 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
     for (const auto& [id, c] : *source) {
       const ObjectInfo& info = m.objects[id];
       if (!info.confirmed || (source == &tracked && from_detection.count(id))) continue;
+      if (source == &tracked && out_of_view.count(id)) continue;
       ObjectObservation obs;
       obs.t_ns = frame.t_ns;
       obs.object_id = id;

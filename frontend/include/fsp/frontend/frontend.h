@@ -70,6 +70,9 @@ struct FrontEndOptions {
   // model): the detector's corners are the better measurement, and a track that slid onto a nearby
   // edge (a window's inner frame) is put back. Larger trusts the tracker more.
   double correct_px = 2.0;
+  // ...unless a corner of the detection lies within this of the image border [px]: there the
+  // detector may have closed the quad with an inner edge (the object's side just out of view).
+  double border_margin_px = 8.0;
   // DetectorKind::kRect: the whole frame is also scanned for AprilTags every this many frames (at a
   // frame where the rectangle detector runs) [frames]: tags too small for the rectangle detector's
   // minimum side are found this way. 0: never (tags then come only from tag-like rectangles).
