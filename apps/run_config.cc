@@ -107,6 +107,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.confirm_detections", &f.confirm_detections, kNonNegative},
       {"frontend.match_gate_frac", &f.match_gate_frac, kNonNegative},
       {"frontend.reid_min_similarity", &f.reid_min_similarity, kNonNegative},
+      {"frontend.reid_min_margin", &f.reid_min_margin, kNonNegative},
       {"frontend.reid_gate_frac", &f.reid_gate_frac, kNonNegative},
       {"frontend.reid_min_similarity_predicted", &f.reid_min_similarity_predicted, kNonNegative},
       {"frontend.correct_px", &f.correct_px, kNonNegative},

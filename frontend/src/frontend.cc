@@ -42,6 +42,7 @@ bool FrontEndOptions::Check(std::string* why) const {
   if (!(reid_min_similarity_predicted >= -1.0 && reid_min_similarity_predicted <= 1.0))
     return fail("reid_min_similarity_predicted must be in [-1, 1]");
   if (!(tag_crop_margin_frac >= 0.0)) return fail("tag_crop_margin_frac must be >= 0");
+  if (!(reid_min_margin >= 0.0)) return fail("reid_min_margin must be >= 0");
   if (!(correct_px > 0.0)) return fail("correct_px must be > 0");
   if (!(border_margin_px >= 0.0)) return fail("border_margin_px must be >= 0");
   if (tag_scan_every < 0) return fail("tag_scan_every must be >= 0");
@@ -95,7 +96,8 @@ Corners RotateCorners(const Corners& c, const Mat3& K, const Mat3& R_Cprev_Ccur)
 struct ObjectInfo {
   bool confirmed = false;
   bool active = false;
-  int detections = 0;  // detection runs that matched it
+  bool is_tag = false;  // a decoded AprilTag (its id is the tag id)
+  int detections = 0;   // detection runs that matched it
   std::map<ObjectClass, int> class_votes;
   Corners last;  // last tracked corners (undistorted px)
 
@@ -226,8 +228,11 @@ struct FrontEnd::Impl {
   // A dormant object that detection D is a view of, with the corner order that fits it; -1 if none.
   int Reidentify(const cv::Mat& gray, const Detection& d, const FramePrediction& prediction,
                  const FrontEndOptions& o, Corners* corners) const {
+    // With gravity known the corner order is canonical (s1 bottom-left): only that order is tried;
+    // without it, all four.
+    const int orders = prediction.gravity_C ? 1 : 4;
     int best_id = -1;
-    double best_sim = -2.0;
+    double best_sim = -2.0, second_sim = -2.0;  // best over objects, and the next object's best
     for (const auto& [id, info] : objects) {
       if (info.active || !info.confirmed) continue;
       double need = o.reid_min_similarity;
@@ -235,16 +240,29 @@ struct FrontEnd::Impl {
         if (pid == id &&
             MeanCornerDistance(pc, d.corners_undistorted) <= o.reid_gate_frac * ShortestSide(pc))
           need = std::min(need, o.reid_min_similarity_predicted);
-      for (int r = 0; r < 4; ++r) {
+      double object_best = -2.0;
+      Corners object_corners = d.corners_undistorted;
+      for (int r = 0; r < orders; ++r) {
         const Corners c = Shifted(d.corners_undistorted, r);
         const std::optional<double> sim = tracker.Similarity(id, gray, c);
-        if (sim && *sim >= need && *sim > best_sim) {
-          best_sim = *sim;
-          best_id = id;
-          *corners = c;
+        if (sim && *sim > object_best) {
+          object_best = *sim;
+          object_corners = c;
         }
       }
+      if (object_best < need) continue;
+      if (object_best > best_sim) {
+        second_sim = best_sim;
+        best_sim = object_best;
+        best_id = id;
+        *corners = object_corners;
+      } else {
+        second_sim = std::max(second_sim, object_best);
+      }
     }
+    // Two dormant objects that both look like the detection (a row of identical windows): which one
+    // came back is not known, and a wrong identity would corrupt the map: a new object instead.
+    if (best_id >= 0 && best_sim - second_sim < o.reid_min_margin) return -1;
     return best_id;
   }
 };
@@ -347,12 +365,31 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
               : !m.tracker.Start(d.tag_id, gray, d.corners_undistorted))
       continue;
     ObjectInfo& info = m.objects[d.tag_id];
+    info.is_tag = true;
     if (known && info.confirmed) ++result.reidentified;
     info.active = true;
     info.last = d.corners_undistorted;
     vote(info, d);
     from_detection[d.tag_id] = d.corners_undistorted;
     score[d.tag_id] = d.score;
+  }
+  // A plain track on a decoded tag is the tag seen as a rectangle (a mix of its black square and
+  // its margin, say): the tag's identity wins and the plain track ends.
+  for (size_t i = 0; i < dets.size(); ++i) {
+    if (dets[i].tag_id < 0) continue;
+    for (auto it = tracked.begin(); it != tracked.end();) {
+      const int id = it->first;
+      if (m.objects[id].is_tag ||
+          !InsideConvex(dets[i].corners_undistorted, Centroid(it->second)) ||
+          MeanCornerDistance(it->second, dets[i].corners_undistorted) >
+              0.5 * ShortestSide(dets[i].corners_undistorted)) {
+        ++it;
+        continue;
+      }
+      m.tracker.Drop(id);
+      m.objects.erase(id);
+      it = tracked.erase(it);
+    }
   }
   struct Pair {
     double dist;

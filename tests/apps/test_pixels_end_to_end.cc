@@ -73,6 +73,22 @@ const fs::path& Sequence() {
   return dir;
 }
 
+// A scene of assets/scenes rendered once per test process.
+fs::path RenderedClip(const std::string& name) {
+  const fs::path d =
+      fs::temp_directory_path() / "fsp_tests" / (name + "_" + std::to_string(::getpid()));
+  if (fs::exists(d / "observations_gt.csv")) return d;
+  fs::remove_all(d);
+  sim::SequenceOptions options;
+  options.video = false;
+  options.top_view = false;
+  options.progress = false;
+  sim::WriteSequence(
+      sim::LoadScene(std::string(FSP_SOURCE_DIR) + "/assets/scenes/" + name + ".yaml"), d.string(),
+      options);
+  return d;
+}
+
 std::string Slurp(const fs::path& p) {
   std::ifstream in(p);
   std::stringstream ss;
@@ -86,13 +102,13 @@ struct RunResult {
   nlohmann::json run, map;
 };
 
-RunResult RunAndEvaluate(const std::string& input_and_args, const fs::path& out) {
+RunResult RunAndEvaluate(const std::string& input_and_args, const fs::path& out,
+                         const fs::path& gt = Sequence()) {
   RunResult r;
   r.command = test::RunFsp("run " + input_and_args + " --out " + out.string());
   EXPECT_EQ(r.command.exit_code, 0) << r.command.err;
   if (r.command.exit_code != 0) return r;
-  r.metrics =
-      eval::Evaluate(eval::ResolvePaths(Sequence().string(), out.string()), eval::EvalOptions());
+  r.metrics = eval::Evaluate(eval::ResolvePaths(gt.string(), out.string()), eval::EvalOptions());
   r.run = nlohmann::json::parse(Slurp(out / "run.json"));
   r.map = nlohmann::json::parse(Slurp(out / "map.json"));
   return r;
@@ -114,24 +130,80 @@ void Print(const char* label, const RunResult& r) {
       r.run["stage_ms"]["backend"]["median"].get<double>());
 }
 
+void PrintTracking(const char* label, const eval::FrontendMetrics& f) {
+  std::printf(
+      "[%s] success %zu/%zu (%.3f), corner median %.3f px, boxes out of view %zu, returns %zu "
+      "re-identified %zu, id switches %d, recall %.3f, precision %.3f\n",
+      label, f.success_frames, f.success_total, f.success_rate.value_or(0.0),
+      f.corner_err_px.median, f.boxes_out_of_view, f.returns, f.reidentified, f.id_switches,
+      f.recall.value_or(0.0), f.precision.value_or(0.0));
+}
+
+// The tracker's clips (assets/scenes/clip_*.yaml), from pixels in window mode, scored against the
+// ground-truth corners. Zoom/roll: a poster zooms 0.51-1.97x, banks to +-45 deg in a sideways dash,
+// leaves the view for 35 frames and returns; a plain door, a window, a tag. Measured: success
+// 547/586 (0.933), median 0.156 px, 1 box out of view, 5/5 returns re-identified, 0 id switches.
+// The misses: a small poster whose detected outline is 2.7 px off the truth (the detector's; the
+// tracker follows it) and the tag re-acquired a few frames late after fast motion.
+TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
+  const fs::path clip = RenderedClip("clip_zoom_roll");
+  const RunResult r = RunAndEvaluate(clip.string(), test::ScratchDir() / "run", clip);
+  ASSERT_TRUE(r.metrics.frontend && r.metrics.frontend->success_rate);
+  const eval::FrontendMetrics& f = *r.metrics.frontend;
+  PrintTracking("zoom/roll", f);
+  EXPECT_GE(*f.success_rate, 0.90);
+  EXPECT_LE(f.corner_err_px.median, 0.3);
+  EXPECT_LE(f.boxes_out_of_view, 2u);
+  EXPECT_GE(f.returns, 4u);
+  EXPECT_EQ(f.reidentified, f.returns);
+  EXPECT_EQ(f.id_switches, 0);
+  EXPECT_GE(*f.precision, 0.98);
+}
+
+// Motion blur (20 ms shutter: median 6 px, p90 17 px of smear on the poster). Measured: success
+// 273/380 (0.718), median 0.29 px, no box out of view, 3/3 returns re-identified, 0 id switches;
+// the misses are the blurred frames, where the corners found on the smeared edges lie 2-6 px from
+// the mid-exposure truth.
+TEST(PixelsEndToEnd, TrackingClipMotionBlur) {
+  const fs::path clip = RenderedClip("clip_blur");
+  const RunResult r = RunAndEvaluate(clip.string(), test::ScratchDir() / "run", clip);
+  ASSERT_TRUE(r.metrics.frontend && r.metrics.frontend->success_rate);
+  const eval::FrontendMetrics& f = *r.metrics.frontend;
+  PrintTracking("blur", f);
+  EXPECT_GE(*f.success_rate, 0.65);
+  EXPECT_LE(f.corner_err_px.median, 0.5);
+  EXPECT_EQ(f.boxes_out_of_view, 0u);
+  EXPECT_EQ(f.reidentified, f.returns);
+  EXPECT_EQ(f.id_switches, 0);
+}
+
 TEST(PixelsEndToEnd, BatchFromPixelsMapsTheRoom) {
   const RunResult r = RunAndEvaluate(Sequence().string() + " --frontend rect --mode batch",
                                      test::ScratchDir() / "run");
   ASSERT_TRUE(r.metrics.trajectory && r.metrics.objects && r.metrics.frontend);
   Print("rect, batch", r);
+  // Measured: ATE 3.5 cm, 4 of the 12 objects matched in the map (the others are never fully in
+  // view long enough in these 10 s, as with gt-corners), width error mean 2.2 cm (max 6.9), front
+  // end recall 0.963, precision 0.997, corner median 0.088 px, 0 id switches.
   const auto& f = *r.metrics.frontend;
-  EXPECT_GT(*f.recall, 0.0);
-  EXPECT_GT(*f.precision, 0.0);
-  // Tags are mapped under their tag ids.
+  EXPECT_GE(*f.recall, 0.93);
+  EXPECT_GE(*f.precision, 0.97);
+  EXPECT_LE(f.corner_err_px.median, 0.2);
+  EXPECT_EQ(f.id_switches, 0);
+  EXPECT_LT(r.metrics.trajectory->ate.rmse, 0.06);
+  EXPECT_GE(r.metrics.objects->matched, 4u);
+  EXPECT_LT(r.metrics.objects->width_err.mean, 0.035);
+  EXPECT_LT(r.metrics.objects->height_err.mean, 0.03);
+  // Tags are mapped under their tag ids (tag 33 is never in view).
   std::set<int> ids;
   for (const auto& o : r.map["objects"]) ids.insert(o["id"].get<int>());
-  for (int tag : {30, 31, 33}) EXPECT_TRUE(ids.count(tag)) << "tag " << tag;
+  for (int tag : {30, 31}) EXPECT_TRUE(ids.count(tag)) << "tag " << tag;
 }
 
-// The same rendered sequence as an image folder (cam0/data with imu.csv and calib.yaml) gives exactly
-// the EuRoC layout's result; as a video (mp4v, lossy) the images differ by compression, so the result
-// agrees to within a bound, not byte for byte. Window mode (cheap); the same input twice gives
-// byte-identical outputs.
+// The same rendered sequence as an image folder (cam0/data with imu.csv and calib.yaml) gives
+// exactly the EuRoC layout's result; as a video (mp4v, lossy) the images differ by compression, so
+// the result agrees to within a bound, not byte for byte. Window mode (cheap); the same input twice
+// gives byte-identical outputs.
 TEST(PixelsEndToEnd, EveryInputKindGivesTheSameResult) {
   const fs::path dir = test::ScratchDir();
   const std::string seq = Sequence().string();
@@ -150,7 +222,12 @@ TEST(PixelsEndToEnd, EveryInputKindGivesTheSameResult) {
     EXPECT_EQ(Slurp(dir / "euroc" / f), Slurp(dir / "folder" / f)) << f;
   }
   EXPECT_FALSE(Slurp(dir / "euroc" / "observations.csv").empty());
-  EXPECT_NEAR(video.metrics.trajectory->ate.rmse, euroc.metrics.trajectory->ate.rmse, 0.05);
+  // Video: the front end's numbers agree (measured recall 0.961 vs 0.963, precision 0.994 vs
+  // 0.997); the window's ATE then differs by a few cm (measured 4.6 vs 2.2 cm).
+  ASSERT_TRUE(video.metrics.frontend && euroc.metrics.frontend);
+  EXPECT_NEAR(*video.metrics.frontend->recall, *euroc.metrics.frontend->recall, 0.02);
+  EXPECT_NEAR(*video.metrics.frontend->precision, *euroc.metrics.frontend->precision, 0.02);
+  EXPECT_LT(video.metrics.trajectory->ate.rmse, 0.08);
   EXPECT_EQ(video.map["objects"].size(), euroc.map["objects"].size());
 }
 

@@ -59,7 +59,10 @@ struct FrontEndOptions {
   // Re-identification: least appearance similarity (NCC, see ObjectTracker::Similarity) of a new
   // detection with a dormant object for it to be that object again [-1, 1]. Lower re-identifies
   // more readily, at the risk of two look-alike objects (a row of identical doors) being merged.
-  double reid_min_similarity = 0.6;
+  double reid_min_similarity = 0.8;
+  // ...and it must beat every other dormant object's similarity by this much [-]: of two look-alike
+  // objects neither is taken (the detection starts a new object rather than risk a wrong identity).
+  double reid_min_margin = 0.1;
   // ...and when the back end predicts the dormant object in view: the largest mean corner distance
   // from that prediction [fraction of the predicted quad's shortest side] for a match on geometry,
   // which then needs only `reid_min_similarity_predicted`.
