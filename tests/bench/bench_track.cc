@@ -41,6 +41,7 @@
 #include "fsp/common/dataset.h"
 #include "fsp/common/error.h"
 #include "fsp/common/observations_io.h"
+#include "fsp/frontend/object_tracker.h"
 
 namespace fsp {
 namespace {
@@ -55,6 +56,27 @@ struct Candidate {
   virtual void Start(int id, const cv::Mat& gray, const Corners& corners) = 0;
   // Tracks every started object into `gray`; an object missing from the result is not reported.
   virtual std::map<int, Corners> Track(const cv::Mat& gray) = 0;
+};
+
+// The project's tracker (frontend/object_tracker.h): started on the ground truth like the others; a
+// returning object counts only when the tracker itself re-finds it (it does not: re-identification
+// is the front end's job), and a quad partly out of the image is not reported.
+class ProjectCandidate : public Candidate {
+ public:
+  explicit ProjectCandidate(const PinholeRadtan& camera) : tracker_(camera) {}
+  std::string Name() const override { return "FSP ObjectTracker"; }
+  void Start(int id, const cv::Mat& gray, const Corners& corners) override {
+    tracker_.Start(id, gray, corners);
+  }
+  std::map<int, Corners> Track(const cv::Mat& gray) override {
+    std::map<int, Corners> out;
+    for (const frontend::TrackedObject& t : tracker_.Track(gray))
+      if (t.tracked && t.in_view) out[t.id] = t.corners_undistorted;
+    return out;
+  }
+
+ private:
+  frontend::ObjectTracker tracker_;
 };
 
 cv::Rect2d BoundingBox(const Corners& c) {
@@ -154,13 +176,7 @@ std::vector<std::unique_ptr<Candidate>> MakeCandidates(const PinholeRadtan& came
   c.push_back(std::make_unique<OpenCvCandidate>("OpenCV CSRT",
                                                 [] { return ModernOps<cv::TrackerCSRT>(); }));
   c.push_back(std::make_unique<OpenCvCandidate>("OpenCV MedianFlow", MedianFlowOps));
-  // ==== ADAPTER FOR THE PROJECT'S ObjectTracker (fsp/frontend/object_tracker.h) ===============
-  // To be added here once its implementation is on this branch (link fsp_frontend in
-  // tests/bench/CMakeLists.txt): a Candidate holding ObjectTracker(camera); Start ->
-  // ObjectTracker::Start, Track -> ObjectTracker::Track, reporting the corners of the entries it
-  // still tracks. No ground truth is given after Start, so a returning object counts only when the
-  // tracker re-finds it itself.
-  // =============================================================================================
+  c.push_back(std::make_unique<ProjectCandidate>(camera));
   return c;
 }
 
