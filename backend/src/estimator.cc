@@ -24,20 +24,33 @@ namespace fsp::backend {
 bool EstimatorOptions::Check(std::string* why) const {
   std::ostringstream os;
   std::string sub;
-  if (window_size < 2) os << "window_size must be >= 2 (got " << window_size << ")";
-  else if (window_max_iterations < 1 || batch_max_iterations < 1) os << "iterations must be >= 1";
-  else if (!factor.Check(&sub)) os << "factor: " << sub;
-  else if (!robust.Check(&sub)) os << "robust: " << sub;
-  else if (!imu.Check(&sub)) os << "imu: " << sub;
-  else if (!init.Check(&sub)) os << "init: " << sub;
-  else if (!static_init.Check(&sub)) os << "static_init: " << sub;
-  else if (!(prior_gyro_bias_sigma > 0.0) || !(prior_acc_bias_sigma > 0.0) || !(prior_log_omega_sigma > 0.0))
+  if (window_size < 2)
+    os << "window_size must be >= 2 (got " << window_size << ")";
+  else if (window_max_iterations < 1 || batch_max_iterations < 1)
+    os << "iterations must be >= 1";
+  else if (!factor.Check(&sub))
+    os << "factor: " << sub;
+  else if (!robust.Check(&sub))
+    os << "robust: " << sub;
+  else if (!imu.Check(&sub))
+    os << "imu: " << sub;
+  else if (!init.Check(&sub))
+    os << "init: " << sub;
+  else if (!static_init.Check(&sub))
+    os << "static_init: " << sub;
+  else if (!(prior_gyro_bias_sigma > 0.0) || !(prior_acc_bias_sigma > 0.0) ||
+           !(prior_log_omega_sigma > 0.0))
     os << "prior sigmas must be > 0";
-  else if (min_observations < 1) os << "min_observations must be >= 1";
-  else if (mature_views < 1) os << "mature_views must be >= 1";
-  else if (max_past_views < 0 || batch_solve_every < 1) os << "max_past_views must be >= 0, batch_solve_every >= 1";
-  else if (!(min_depth_m > 0.0) || !(max_depth_m > min_depth_m)) os << "need 0 < min_depth_m < max_depth_m";
-  else if (!(reinit_gate_px >= 0.0)) os << "reinit_gate_px must be >= 0";
+  else if (min_observations < 1)
+    os << "min_observations must be >= 1";
+  else if (mature_views < 1)
+    os << "mature_views must be >= 1";
+  else if (max_past_views < 0 || batch_solve_every < 1)
+    os << "max_past_views must be >= 0, batch_solve_every >= 1";
+  else if (!(min_depth_m > 0.0) || !(max_depth_m > min_depth_m))
+    os << "need 0 < min_depth_m < max_depth_m";
+  else if (!(reinit_gate_px >= 0.0))
+    os << "reinit_gate_px must be >= 0";
   if (why) *why = os.str();
   return os.str().empty();
 }
@@ -93,14 +106,15 @@ struct Estimator::Impl {
   Rigid3 T_B_C;
   EstimatorSummary summary;
 
-  std::vector<ImuSample> imu;                 // all samples (pruned behind the oldest needed time)
+  std::vector<ImuSample> imu;  // all samples (pruned behind the oldest needed time)
   std::vector<std::pair<int64_t, std::vector<ObjectObservation>>> pending;  // frames before init
-  std::deque<std::unique_ptr<Keyframe>> keyframes;  // every keyframe (window = the last window_size)
+  std::deque<std::unique_ptr<Keyframe>>
+      keyframes;  // every keyframe (window = the last window_size)
   std::map<int, std::unique_ptr<Object>> objects;
   // Window mode: the best-observed earlier instance of each re-initialised object (the map reports
   // whichever instance of an id has more observations).
   std::map<int, std::unique_ptr<Object>> retired;
-  std::vector<StateSample> output;            // per frame, the state reported for it
+  std::vector<StateSample> output;  // per frame, the state reported for it
   // Frames that were not kept as keyframes: their pose and velocity relative to the keyframe before
   // them, from their own solve. They are reported relative to that keyframe's final estimate (as
   // keyframe-based systems write trajectories): reporting their own solve next to keyframes refined
@@ -113,20 +127,24 @@ struct Estimator::Impl {
   };
   std::vector<Dropped> dropped;
 
+  // A dropped frame's state: its keyframe's estimate moved by the relative pose of the frame's
+  // solve.
+  StateSample Resolve(const Dropped& d) const {
+    const StateSample& ref = output[d.ref->frame];
+    StateSample s = output[d.frame];
+    s.T_W_B = ref.T_W_B * d.T_ref_B;
+    s.v_W = ref.T_W_B.rotation() * d.v_ref;
+    s.gyro_bias = ref.gyro_bias;
+    s.acc_bias = ref.acc_bias;
+    return s;
+  }
   std::vector<StateSample> Reported() const {
     std::vector<StateSample> out = output;
-    for (const Dropped& d : dropped) {
-      const StateSample& ref = out[d.ref->frame];
-      StateSample& s = out[d.frame];
-      s.T_W_B = ref.T_W_B * d.T_ref_B;
-      s.v_W = ref.T_W_B.rotation() * d.v_ref;
-      s.gyro_bias = ref.gyro_bias;
-      s.acc_bias = ref.acc_bias;
-    }
+    for (const Dropped& d : dropped) out[d.frame] = Resolve(d);
     return out;
   }
-  size_t window_begin = 0;                     // index of the oldest keyframe in the window
-  Rigid3 T_W_B0;                               // gauge prior of the first keyframe
+  size_t window_begin = 0;  // index of the oldest keyframe in the window
+  Rigid3 T_W_B0;            // gauge prior of the first keyframe
   Eigen::Matrix<double, 9, 1> sb0 = Eigen::Matrix<double, 9, 1>::Zero();
   std::shared_ptr<const LinearPrior> prior;  // from the marginalised keyframes
   bool finished = false;
@@ -194,15 +212,16 @@ struct Estimator::Impl {
       kf->state = *initial;
     } else {
       const Keyframe& prev = *keyframes.back();
-      kf->preint = std::make_shared<ImuPreintegration>(options.imu, ImuBetween(prev.state.t_ns, t_ns),
-                                                       prev.state.t_ns, t_ns, prev.state.gyro_bias(),
-                                                       prev.state.acc_bias());
+      kf->preint = std::make_shared<ImuPreintegration>(
+          options.imu, ImuBetween(prev.state.t_ns, t_ns), prev.state.t_ns, t_ns,
+          prev.state.gyro_bias(), prev.state.acc_bias());
       Rigid3 T_W_Bj;
       Vec3 v_j;
-      kf->preint->Predict(prev.state.T_W_B(), prev.state.v_W(), prev.state.gyro_bias(), prev.state.acc_bias(),
-                          &T_W_Bj, &v_j);
+      kf->preint->Predict(prev.state.T_W_B(), prev.state.v_W(), prev.state.gyro_bias(),
+                          prev.state.acc_bias(), &T_W_Bj, &v_j);
       kf->state.SetT_W_B(T_W_Bj);
-      std::copy(prev.state.speed_bias, prev.state.speed_bias + kSpeedBiasSize, kf->state.speed_bias);
+      std::copy(prev.state.speed_bias, prev.state.speed_bias + kSpeedBiasSize,
+                kf->state.speed_bias);
       VelocityOf(kf->state.speed_bias) = v_j;
     }
     kf->state.t_ns = t_ns;
@@ -223,28 +242,30 @@ struct Estimator::Impl {
     if (options.mode == EstimatorMode::kWindow) {
       SolveWindow(options.window_max_iterations);
       const auto in_window = [this] {
-        return static_cast<int>(keyframes.size() - window_begin) - (keyframes.back()->keyframe ? 0 : 1);
+        return static_cast<int>(keyframes.size() - window_begin) -
+               (keyframes.back()->keyframe ? 0 : 1);
       };
       while (in_window() > options.window_size) MarginalizeOldest();
     } else if (keyframes.size() % static_cast<size_t>(options.batch_solve_every) == 0) {
       // Batch: the whole problem so far (window_begin stays 0), re-solved every few frames so the
-      // initial values of the final solve stay close to the optimum. Each solve must converge: with a
-      // few iterations per solve (like the window's) the error left behind grew with every solve and
-      // the default scene diverged after ~20 s (ATE 39 m); solved to convergence (7-19 iterations
-      // each) ATE 0.42 cm.
+      // initial values of the final solve stay close to the optimum. Each solve must converge: with
+      // a few iterations per solve (like the window's) the error left behind grew with every solve
+      // and the default scene diverged after ~20 s (ATE 39 m); solved to convergence (7-19
+      // iterations each) ATE 0.42 cm.
       SolveWindow(options.batch_max_iterations);
     }
     PruneImu();
     summary.backend_ms.push_back(MsSince(t_start));
   }
 
-  // Window mode: whether a frame is kept as a keyframe. Kept: every keyframe_interval_s, and any frame
-  // that sees an object not in the map or back after leaving the window (it may become the object's
-  // anchor, and only keyframes can be anchors).
+  // Window mode: whether a frame is kept as a keyframe. Kept: every keyframe_interval_s, and any
+  // frame that sees an object not in the map or back after leaving the window (it may become the
+  // object's anchor, and only keyframes can be anchors).
   bool IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const {
     if (options.mode == EstimatorMode::kBatch || options.keyframe_interval_s <= 0.0) return true;
     const Keyframe& last = *keyframes.back();  // a keyframe: a non-keyframe newest was just dropped
-    if (static_cast<double>(t_ns - last.state.t_ns) >= options.keyframe_interval_s * 1e9 - 1e6) return true;
+    if (static_cast<double>(t_ns - last.state.t_ns) >= options.keyframe_interval_s * 1e9 - 1e6)
+      return true;
     const int first_in_window = keyframes[window_begin]->index;
     for (const ObjectObservation& o : obs) {
       auto it = objects.find(o.object_id);
@@ -282,13 +303,14 @@ struct Estimator::Impl {
 
   // Single-view initialisation of objects seen for the first time in `kf`, anchored at it.
   // Window mode: an object seen again after it left the window (no window keyframe sees it) whose
-  // corners are further than options.reinit_gate_px (RMS) from their prediction in `kf` starts afresh
-  // as well. Its past views hold poses from before the gap fixed, while the trajectory drifted
-  // meanwhile (dead reckoning through stretches without objects): on the default scene the first
-  // re-observations after such a gap were 70-190 px away from their prediction, and forcing the window
-  // to agree with those frozen views made the accelerometer bias absorb the mismatch (0.1 -> 2 m/s^2)
-  // and the estimate diverge (ATE 76 m on 60 s). The window is an odometry; closing such large loops
-  // needs a pose graph that can move the old poses, not a window that cannot.
+  // corners are further than options.reinit_gate_px (RMS) from their prediction in `kf` starts
+  // afresh as well. Its past views hold poses from before the gap fixed, while the trajectory
+  // drifted meanwhile (dead reckoning through stretches without objects): on the default scene the
+  // first re-observations after such a gap were 70-190 px away from their prediction, and forcing
+  // the window to agree with those frozen views made the accelerometer bias absorb the mismatch
+  // (0.1 -> 2 m/s^2) and the estimate diverge (ATE 76 m on 60 s). The window is an odometry;
+  // closing such large loops needs a pose graph that can move the old poses, not a window that
+  // cannot.
   void InitializeNewObjects(Keyframe* kf) {
     const Rigid3 T_W_C = CameraPose(*kf);
     const Vec3 up_C = T_W_C.rotation().conjugate() * Vec3::UnitZ();
@@ -296,18 +318,22 @@ struct Estimator::Impl {
     for (const ObjectObservation& o : kf->observations) {
       auto found = objects.find(o.object_id);
       if (found != objects.end() && options.mode == EstimatorMode::kWindow &&
-          found->second->last_seen < first_in_window && !ConsistentWithMap(*found->second, T_W_C, o.corners)) {
+          found->second->last_seen < first_in_window &&
+          !ConsistentWithMap(*found->second, T_W_C, o.corners)) {
         std::unique_ptr<Object>& best = retired[o.object_id];
-        if (!best || best->observations < found->second->observations) best = std::move(found->second);
+        if (!best || best->observations < found->second->observations)
+          best = std::move(found->second);
         objects.erase(found);
         found = objects.end();
         ++summary.objects_reinitialized;
       }
       if (found != objects.end()) continue;
-      const bool vertical = o.object_class == ObjectClass::kDoor || o.object_class == ObjectClass::kWindow ||
-                            o.object_class == ObjectClass::kCabinet || o.object_class == ObjectClass::kPoster;
-      const SingleViewInitSummary s = InitializeFspSingleView(
-          o.corners, K, o.object_class, options.init, vertical ? std::optional<Vec3>(up_C) : std::nullopt);
+      const bool vertical =
+          o.object_class == ObjectClass::kDoor || o.object_class == ObjectClass::kWindow ||
+          o.object_class == ObjectClass::kCabinet || o.object_class == ObjectClass::kPoster;
+      const SingleViewInitSummary s =
+          InitializeFspSingleView(o.corners, K, o.object_class, options.init,
+                                  vertical ? std::optional<Vec3>(up_C) : std::nullopt);
       if (!s.success()) {
         ++summary.observations_rejected;
         continue;
@@ -323,36 +349,40 @@ struct Estimator::Impl {
     }
   }
 
-  // Whether an observation from camera pose T_W_C agrees with the object's estimate: in front and the
-  // RMS corner error (pixels) within options.reinit_gate_px.
+  // Whether an observation from camera pose T_W_C agrees with the object's estimate: in front and
+  // the RMS corner error (pixels) within options.reinit_gate_px.
   bool ConsistentWithMap(const Object& obj, const Rigid3& T_W_C, const Corners& corners) const {
     const Rigid3 T_W_F = CameraPose(*obj.anchor);
-    const CornerPrediction p = options.landmarks == LandmarkType::kFsp ? PredictFspCorners(K, T_W_C, T_W_F, obj.fsp)
-                                                                       : PredictFhpCorners(K, T_W_C, T_W_F, obj.fhp);
+    const CornerPrediction p = options.landmarks == LandmarkType::kFsp
+                                   ? PredictFspCorners(K, T_W_C, T_W_F, obj.fsp)
+                                   : PredictFhpCorners(K, T_W_C, T_W_F, obj.fhp);
     if (!p.in_front) return false;
     double sum2 = 0.0;
     for (int j = 0; j < 4; ++j) sum2 += (p.uv[j] - corners[j]).squaredNorm();
     return std::sqrt(sum2 / 4.0) <= options.reinit_gate_px;
   }
 
-  // Whether the object's depth sits on the box [min_depth_m, max_depth_m] (an FHP corner's, any): such
-  // a depth is not an estimate (no parallax; or, seen in window mode and not yet understood, a collapse
-  // onto the minimum), so neither are its size and place; the map leaves it out.
+  // Whether the object's depth sits on the box [min_depth_m, max_depth_m] (an FHP corner's, any):
+  // such a depth is not an estimate (no parallax; or, seen in window mode and not yet understood, a
+  // collapse onto the minimum), so neither are its size and place; the map leaves it out.
   bool AtDepthBound(const Object& obj) const { return !DepthInBox(obj.fsp, obj.fhp); }
 
   // Whether the depth of s1 (FSP) or of every corner (FHP) lies strictly inside the depth box.
   bool DepthInBox(const FspLandmark& fsp, const FhpLandmark& fhp) const {
     const double lo = -std::log(options.max_depth_m), hi = -std::log(options.min_depth_m);
-    const auto inside = [&](double log_omega) { return log_omega > lo + 1e-6 && log_omega < hi - 1e-6; };
+    const auto inside = [&](double log_omega) {
+      return log_omega > lo + 1e-6 && log_omega < hi - 1e-6;
+    };
     if (options.landmarks == LandmarkType::kFsp) return inside(fsp.x[kFspLogOmega]);
     for (const auto& c : fhp.corner)
       if (!inside(c[2])) return false;
     return true;
   }
 
-  // --- Problem construction -----------------------------------------------------------------------
-  // Adds the factor(s) of one observation of `obj` from keyframe `kf`. Poses of keyframes that are not
-  // variables of this problem (`is_variable` false: they left the window) enter as constants.
+  // --- Problem construction
+  // ----------------------------------------------------------------------- Adds the factor(s) of
+  // one observation of `obj` from keyframe `kf`. Poses of keyframes that are not variables of this
+  // problem (`is_variable` false: they left the window) enter as constants.
   template <typename IsVariable>
   void AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj, const Corners& corners,
                       const IsVariable& is_variable) {
@@ -368,32 +398,37 @@ struct Estimator::Impl {
       if (!PredictFspCorners(K, T_W_C, T_W_F, obj->fsp).in_front) return;  // behind the camera
       ceres::LossFunction* loss = MakeRobustLoss(options.robust, 8).release();
       if (at_anchor) {
-        problem->AddResidualBlock(new FspAnchorFactor(corners, K, options.factor), loss, obj->fsp.q_F_O, obj->fsp.x);
+        problem->AddResidualBlock(new FspAnchorFactor(corners, K, options.factor), loss,
+                                  obj->fsp.q_F_O, obj->fsp.x);
       } else {
-        problem->AddResidualBlock(new FspFactor(corners, K, T_B_C, options.factor), loss, kf->state.pose,
-                                  obj->anchor->state.pose, obj->fsp.q_F_O, obj->fsp.x);
+        problem->AddResidualBlock(new FspFactor(corners, K, T_B_C, options.factor), loss,
+                                  kf->state.pose, obj->anchor->state.pose, obj->fsp.q_F_O,
+                                  obj->fsp.x);
       }
       problem->SetManifold(obj->fsp.q_F_O, &quat_manifold);
-      BoundLogParameter(problem, obj->fsp.x, kFspLogOmega, options.min_depth_m, options.max_depth_m);
+      BoundLogParameter(problem, obj->fsp.x, kFspLogOmega, options.min_depth_m,
+                        options.max_depth_m);
     } else {
       if (!PredictFhpCorners(K, T_W_C, T_W_F, obj->fhp).in_front) return;  // behind the camera
       for (int j = 0; j < 4; ++j) {
         ceres::LossFunction* loss = MakeRobustLoss(options.robust, 2).release();
         if (at_anchor) {
-          problem->AddResidualBlock(new FhpAnchorFactor(corners[j], K, options.factor), loss, obj->fhp.corner[j]);
+          problem->AddResidualBlock(new FhpAnchorFactor(corners[j], K, options.factor), loss,
+                                    obj->fhp.corner[j]);
         } else {
-          problem->AddResidualBlock(new FhpFactor(corners[j], K, T_B_C, options.factor), loss, kf->state.pose,
-                                    obj->anchor->state.pose, obj->fhp.corner[j]);
+          problem->AddResidualBlock(new FhpFactor(corners[j], K, T_B_C, options.factor), loss,
+                                    kf->state.pose, obj->anchor->state.pose, obj->fhp.corner[j]);
         }
         BoundLogParameter(problem, obj->fhp.corner[j], 2, options.min_depth_m, options.max_depth_m);
       }
     }
   }
 
-  // Keeps an inverse depth ω = exp(x[i]) within [1/max_depth, 1/min_depth]: an object with no parallax
-  // yet (hover, far away) must not drift to infinity and drag the trajectory with it. The current value
-  // is clamped into the box first (Ceres requires a feasible start).
-  static void BoundLogParameter(ceres::Problem* problem, double* block, int i, double min_depth, double max_depth) {
+  // Keeps an inverse depth ω = exp(x[i]) within [1/max_depth, 1/min_depth]: an object with no
+  // parallax yet (hover, far away) must not drift to infinity and drag the trajectory with it. The
+  // current value is clamped into the box first (Ceres requires a feasible start).
+  static void BoundLogParameter(ceres::Problem* problem, double* block, int i, double min_depth,
+                                double max_depth) {
     const double lo = -std::log(max_depth), hi = -std::log(min_depth);
     block[i] = std::clamp(block[i], lo, hi);
     problem->SetParameterLowerBound(block, i, lo);
@@ -405,21 +440,26 @@ struct Estimator::Impl {
   // only the others (refined alone with every pose held constant).
   void AddVisualFactors(ceres::Problem* problem, size_t begin, size_t end, bool mature) {
     const int first_index = keyframes[begin]->index;
-    auto is_variable = [first_index, mature](const Keyframe* k) { return mature && k->index >= first_index; };
+    auto is_variable = [first_index, mature](const Keyframe* k) {
+      return mature && k->index >= first_index;
+    };
     std::vector<Object*> seen;
     for (size_t i = begin; i < end; ++i) {
       Keyframe* kf = keyframes[i].get();
       for (const ObjectObservation& o : kf->observations) {
         auto it = objects.find(o.object_id);
-        if (it == objects.end() || (it->second->observations >= options.mature_views) != mature) continue;
+        if (it == objects.end() || (it->second->observations >= options.mature_views) != mature)
+          continue;
         AddObservation(problem, kf, it->second.get(), o.corners, is_variable);
         seen.push_back(it->second.get());
       }
     }
-    std::sort(seen.begin(), seen.end(), [](const Object* a, const Object* b) { return a->id < b->id; });
+    std::sort(seen.begin(), seen.end(),
+              [](const Object* a, const Object* b) { return a->id < b->id; });
     seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
     for (Object* obj : seen)
-      for (const auto& view : obj->past) AddObservation(problem, view.keyframe, obj, view.corners, is_variable);
+      for (const auto& view : obj->past)
+        AddObservation(problem, view.keyframe, obj, view.corners, is_variable);
   }
 
   void AddStateBlocks(ceres::Problem* problem, Keyframe* kf) {
@@ -429,8 +469,8 @@ struct Estimator::Impl {
 
   void AddImuFactor(ceres::Problem* problem, Keyframe* prev, Keyframe* kf) {
     kf->preint->ReintegrateIfNeeded(prev->state.gyro_bias(), prev->state.acc_bias());
-    problem->AddResidualBlock(new ImuFactor(kf->preint), nullptr, prev->state.pose, prev->state.speed_bias,
-                              kf->state.pose, kf->state.speed_bias);
+    problem->AddResidualBlock(new ImuFactor(kf->preint), nullptr, prev->state.pose,
+                              prev->state.speed_bias, kf->state.pose, kf->state.speed_bias);
   }
 
   void AddGaugePriors(ceres::Problem* problem, Keyframe* first) {
@@ -443,8 +483,9 @@ struct Estimator::Impl {
     if (options.landmarks != LandmarkType::kFsp) return;
     for (auto& [id, obj] : objects) {
       if (!problem->HasParameterBlock(obj->fsp.x)) continue;
-      problem->AddResidualBlock(new LogWidthPrior(obj->width_prior_m, options.prior_log_omega_sigma), nullptr,
-                                obj->fsp.x);
+      problem->AddResidualBlock(
+          new LogWidthPrior(obj->width_prior_m, options.prior_log_omega_sigma), nullptr,
+          obj->fsp.x);
     }
   }
 
@@ -468,27 +509,30 @@ struct Estimator::Impl {
     return so;
   }
 
-  // Solves the window [window_begin, end): states, IMU factors, gauge priors while the first keyframe is
-  // in it, the marginalisation prior, mature objects' observations and the object priors. The final
-  // solve (finish) iterates longer and computes the map's width/height sigmas; the per-frame one then
-  // refines the young objects alone.
+  // Solves the window [window_begin, end): states, IMU factors, gauge priors while the first
+  // keyframe is in it, the marginalisation prior, mature objects' observations and the object
+  // priors. The final solve (finish) iterates longer and computes the map's width/height sigmas;
+  // the per-frame one then refines the young objects alone.
   void SolveWindow(int max_iterations, bool finish = false) {
     ceres::Problem problem(ProblemOptions());
     const size_t n = keyframes.size();
     for (size_t i = window_begin; i < n; ++i) AddStateBlocks(&problem, keyframes[i].get());
-    for (size_t i = window_begin + 1; i < n; ++i) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
+    for (size_t i = window_begin + 1; i < n; ++i)
+      AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
     if (window_begin == 0) AddGaugePriors(&problem, keyframes[0].get());
     if (prior) {
       problem.AddResidualBlock(new MarginalizationPriorFactor(prior), nullptr, prior->blocks);
       for (size_t b = 0; b < prior->blocks.size(); ++b)
-        if (prior->manifolds[b]) problem.SetManifold(prior->blocks[b], const_cast<ceres::Manifold*>(prior->manifolds[b]));
+        if (prior->manifolds[b])
+          problem.SetManifold(prior->blocks[b], const_cast<ceres::Manifold*>(prior->manifolds[b]));
     }
     AddVisualFactors(&problem, window_begin, n, /*mature=*/true);
     AddObjectPriors(&problem);
     ceres::Solver::Summary s;
     ceres::Solve(SolverOptions(max_iterations), &problem, &s);
     summary.final_cost = s.final_cost;
-    for (size_t i = window_begin; i < n; ++i) output[keyframes[i]->frame] = keyframes[i]->state.ToStateSample();
+    for (size_t i = window_begin; i < n; ++i)
+      output[keyframes[i]->frame] = keyframes[i]->state.ToStateSample();
     if (finish) {
       ComputeSigmas(&problem);
     } else {
@@ -496,9 +540,9 @@ struct Estimator::Impl {
     }
   }
 
-  // Objects seen fewer than mature_views times are refined on their own with the poses held constant:
-  // a young object's single-view guess (class-prior depth, possibly flipped normal) must not pull the
-  // trajectory before parallax has confirmed it.
+  // Objects seen fewer than mature_views times are refined on their own with the poses held
+  // constant: a young object's single-view guess (class-prior depth, possibly flipped normal) must
+  // not pull the trajectory before parallax has confirmed it.
   void RefineYoungObjects(int max_iterations) {
     ceres::Problem problem(ProblemOptions());
     AddVisualFactors(&problem, window_begin, keyframes.size(), /*mature=*/false);
@@ -508,8 +552,9 @@ struct Estimator::Impl {
     ceres::Solve(SolverOptions(max_iterations), &problem, &s);
   }
 
-  // --- Marginalisation ------------------------------------------------------------------------------
-  // Moves the anchor of every object anchored at `old` to the newest window keyframe with s1 in front.
+  // --- Marginalisation
+  // ------------------------------------------------------------------------------ Moves the anchor
+  // of every object anchored at `old` to the newest window keyframe with s1 in front.
   void ReanchorObjectsOf(Keyframe* old) {
     const size_t n = keyframes.size();
     for (auto& [id, obj] : objects) {
@@ -521,15 +566,18 @@ struct Estimator::Impl {
         const Rigid3 T_W_Fnew = CameraPose(*cand);
         FspLandmark fsp_new;
         FhpLandmark fhp_new;
-        const bool ok = options.landmarks == LandmarkType::kFsp ? ReanchorFsp(obj->fsp, T_W_F, T_W_Fnew, &fsp_new)
-                                                                : ReanchorFhp(obj->fhp, T_W_F, T_W_Fnew, &fhp_new);
+        const bool ok = options.landmarks == LandmarkType::kFsp
+                            ? ReanchorFsp(obj->fsp, T_W_F, T_W_Fnew, &fsp_new)
+                            : ReanchorFhp(obj->fhp, T_W_F, T_W_Fnew, &fhp_new);
         // A keyframe that sees s1 barely in front (looking along the wall past it) would put the
         // object's depth outside the box, where the bound clamps it and destroys its geometry
-        // (measured: the default scene's objects collapsed onto the 0.3 m minimum right after such a
-        // re-anchoring); take the newest keyframe that keeps the depth inside.
+        // (measured: the default scene's objects collapsed onto the 0.3 m minimum right after such
+        // a re-anchoring); take the newest keyframe that keeps the depth inside.
         if (!ok || !DepthInBox(fsp_new, fhp_new)) continue;
-        if (options.landmarks == LandmarkType::kFsp) obj->fsp = fsp_new;
-        else obj->fhp = fhp_new;
+        if (options.landmarks == LandmarkType::kFsp)
+          obj->fsp = fsp_new;
+        else
+          obj->fhp = fhp_new;
         obj->anchor = cand;
 
         ++summary.reanchors;
@@ -542,8 +590,8 @@ struct Estimator::Impl {
     Keyframe* old = keyframes[window_begin].get();
     Keyframe* next = keyframes[window_begin + 1].get();
     ReanchorObjectsOf(old);
-    // Objects that could not be re-anchored (s1 behind every window camera) keep their anchor: their
-    // information from the window leaves with the keyframe and they are frozen.
+    // Objects that could not be re-anchored (s1 behind every window camera) keep their anchor:
+    // their information from the window leaves with the keyframe and they are frozen.
 
     // Every factor that touches the old keyframe's state, linearised at the current estimate.
     std::vector<std::unique_ptr<ceres::CostFunction>> costs;
@@ -566,11 +614,12 @@ struct Estimator::Impl {
       add(MakeBiasPrior(), nullptr, {old->state.speed_bias});
     }
     if (prior) {
-      for (size_t b = 0; b < prior->blocks.size(); ++b) manifolds[prior->blocks[b]] = prior->manifolds[b];
+      for (size_t b = 0; b < prior->blocks.size(); ++b)
+        manifolds[prior->blocks[b]] = prior->manifolds[b];
       add(new MarginalizationPriorFactor(prior), nullptr, prior->blocks);
     }
-    const MarginalizationSummary ms =
-        Marginalize(inputs, {old->state.pose, old->state.speed_bias}, manifolds, MarginalizationOptions());
+    const MarginalizationSummary ms = Marginalize(inputs, {old->state.pose, old->state.speed_bias},
+                                                  manifolds, MarginalizationOptions());
     if (ms.success) {
       prior = ms.prior;
     } else {
@@ -597,17 +646,21 @@ struct Estimator::Impl {
     return new SpeedBiasPrior(sb0, sigma);
   }
 
-  // --- Batch ---------------------------------------------------------------------------------------
+  // --- Batch
+  // ---------------------------------------------------------------------------------------
   void SolveBatch() {
     const auto t0 = Clock::now();
     ceres::Problem problem(ProblemOptions());
     for (auto& kf : keyframes) AddStateBlocks(&problem, kf.get());
-    for (size_t i = 1; i < keyframes.size(); ++i) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
+    for (size_t i = 1; i < keyframes.size(); ++i)
+      AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
     AddGaugePriors(&problem, keyframes[0].get());
     for (auto& kf : keyframes) {
       for (const ObjectObservation& o : kf->observations) {
         auto it = objects.find(o.object_id);
-        if (it != objects.end()) AddObservation(&problem, kf.get(), it->second.get(), o.corners, [](const Keyframe*) { return true; });
+        if (it != objects.end())
+          AddObservation(&problem, kf.get(), it->second.get(), o.corners,
+                         [](const Keyframe*) { return true; });
       }
     }
     AddObjectPriors(&problem);
@@ -620,7 +673,8 @@ struct Estimator::Impl {
     ComputeSigmas(&problem);
   }
 
-  // --- Map covariance -----------------------------------------------------------------------------
+  // --- Map covariance
+  // -----------------------------------------------------------------------------
   std::map<const Object*, std::pair<double, double>> sigmas;  // (σ_w, σ_h)
 
   void ComputeSigmas(ceres::Problem* problem) {
@@ -640,8 +694,8 @@ struct Estimator::Impl {
         for (int b = a; b < 4; ++b) blocks.emplace_back(obj->fhp.corner[a], obj->fhp.corner[b]);
     }
     if (blocks.empty() || !covariance.Compute(blocks, problem)) return;
-    // ceres::Covariance orders its columns by parameter block address, so the last bits of a σ depend
-    // on heap layout; 9 significant digits keep the output deterministic and lose nothing.
+    // ceres::Covariance orders its columns by parameter block address, so the last bits of a σ
+    // depend on heap layout; 9 significant digits keep the output deterministic and lose nothing.
     const auto round9 = [](double v) {
       if (!(v > 0.0)) return v;
       const double scale = std::pow(10.0, 8 - static_cast<int>(std::floor(std::log10(v))));
@@ -653,7 +707,8 @@ struct Estimator::Impl {
     }
   }
 
-  static std::pair<double, double> FspSigmas(const ceres::Covariance& covariance, const FspLandmark& l) {
+  static std::pair<double, double> FspSigmas(const ceres::Covariance& covariance,
+                                             const FspLandmark& l) {
     double c[25];
     covariance.GetCovarianceBlock(l.x, l.x, c);
     Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
@@ -668,8 +723,10 @@ struct Estimator::Impl {
   }
 
   // FHP: w and h are functions of the 12 corner parameters (all in the anchor frame, so the anchor
-  // pose does not enter): σ² = J C Jᵀ with C the joint 12 x 12 covariance and J by central differences.
-  static std::pair<double, double> FhpSigmas(const ceres::Covariance& covariance, const FhpLandmark& l) {
+  // pose does not enter): σ² = J C Jᵀ with C the joint 12 x 12 covariance and J by central
+  // differences.
+  static std::pair<double, double> FhpSigmas(const ceres::Covariance& covariance,
+                                             const FhpLandmark& l) {
     Eigen::Matrix<double, 12, 12> C;
     for (int a = 0; a < 4; ++a)
       for (int b = a; b < 4; ++b) {
@@ -707,7 +764,8 @@ Estimator::~Estimator() = default;
 
 void Estimator::AddImu(const ImuSample& sample) {
   if (!impl_->imu.empty() && sample.t_ns <= impl_->imu.back().t_ns) {
-    throw InputError("IMU sample at t_ns " + std::to_string(sample.t_ns) + " is not after the previous one");
+    throw InputError("IMU sample at t_ns " + std::to_string(sample.t_ns) +
+                     " is not after the previous one");
   }
   impl_->imu.push_back(sample);
 }
@@ -733,7 +791,8 @@ void Estimator::Finish() {
   d.finished = true;
   if (!d.summary.initialized && d.summary.init_failure.empty() && !d.pending.empty()) {
     d.summary.init_failure = "the sequence ended before the static initialisation interval (" +
-                             std::to_string(d.options.static_init.window_s) + " s of IMU after the first frame)";
+                             std::to_string(d.options.static_init.window_s) +
+                             " s of IMU after the first frame)";
   }
   if (!d.summary.initialized) return;
   if (d.options.mode == EstimatorMode::kBatch) {
@@ -743,13 +802,23 @@ void Estimator::Finish() {
   }
 }
 
-std::vector<StateSample> Estimator::States() const { return impl_->Reported(); }
+std::vector<StateSample> Estimator::States() const {
+  return impl_->Reported();
+}
 
 std::vector<StampedPose> Estimator::Trajectory() const {
   std::vector<StampedPose> poses;
   poses.reserve(impl_->output.size());
   for (const StateSample& s : impl_->Reported()) poses.push_back({s.t_ns, s.T_W_B});
   return poses;
+}
+
+std::optional<StateSample> Estimator::Latest() const {
+  const Impl& d = *impl_;
+  if (d.output.empty()) return std::nullopt;
+  const int last = static_cast<int>(d.output.size()) - 1;
+  if (!d.dropped.empty() && d.dropped.back().frame == last) return d.Resolve(d.dropped.back());
+  return d.output[last];
 }
 
 std::vector<MapObject> Estimator::Map() const {
@@ -788,6 +857,8 @@ std::vector<MapObject> Estimator::Map() const {
   return map;
 }
 
-const EstimatorSummary& Estimator::summary() const { return impl_->summary; }
+const EstimatorSummary& Estimator::summary() const {
+  return impl_->summary;
+}
 
 }  // namespace fsp::backend

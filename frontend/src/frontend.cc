@@ -37,6 +37,8 @@ bool FrontEndOptions::Check(std::string* why) const {
   if (confirm_detections < 1) return fail("confirm_detections must be >= 1");
   if (!(match_gate_frac > 0.0)) return fail("match_gate_frac must be > 0");
   if (!(reid_gate_frac > 0.0)) return fail("reid_gate_frac must be > 0");
+  if (!(reid_reject_frac >= reid_gate_frac))
+    return fail("reid_reject_frac must be >= reid_gate_frac");
   if (!(reid_min_similarity >= -1.0 && reid_min_similarity <= 1.0))
     return fail("reid_min_similarity must be in [-1, 1]");
   if (!(reid_min_similarity_predicted >= -1.0 && reid_min_similarity_predicted <= 1.0))
@@ -235,11 +237,16 @@ struct FrontEnd::Impl {
     double best_sim = -2.0, second_sim = -2.0;  // best over objects, and the next object's best
     for (const auto& [id, info] : objects) {
       if (info.active || !info.confirmed) continue;
+      // The back end's prediction: near it, a lower bar; far from it, geometry says no.
       double need = o.reid_min_similarity;
-      for (const auto& [pid, pc] : prediction.objects)
-        if (pid == id &&
-            MeanCornerDistance(pc, d.corners_undistorted) <= o.reid_gate_frac * ShortestSide(pc))
-          need = std::min(need, o.reid_min_similarity_predicted);
+      bool elsewhere = false;
+      for (const auto& [pid, pc] : prediction.objects) {
+        if (pid != id) continue;
+        const double dist = MeanCornerDistance(pc, d.corners_undistorted);
+        if (dist <= o.reid_gate_frac * ShortestSide(pc)) need = o.reid_min_similarity_predicted;
+        elsewhere = dist > o.reid_reject_frac * ShortestSide(pc);
+      }
+      if (elsewhere) continue;
       double object_best = -2.0;
       Corners object_corners = d.corners_undistorted;
       for (int r = 0; r < orders; ++r) {

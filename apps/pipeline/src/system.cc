@@ -75,15 +75,38 @@ struct System::Impl {
   Impl(const Calibration& c, const SystemOptions& o)
       : calibration(c), estimator(c, Checked(o).estimator), frontend(c.camera, o.frontend) {}
 
-  // The gyroscope's rotation since the previous frame and gravity, in the camera frame.
-  FramePrediction Predict() {
+  // The gyroscope's rotation since the previous frame, gravity in the camera frame and where the
+  // map's objects should appear: the newest estimate moved by the gyroscope's rotation and its
+  // velocity over the frame interval (an IMU-only prediction until the estimator is initialised).
+  FramePrediction Predict(int64_t t_ns) {
     FramePrediction p;
-    const Mat3 R_B_C = calibration.T_B_C.R();
+    const Rigid3& T_B_C = calibration.T_B_C;
+    const Mat3 R_B_C = T_B_C.R();
     const Mat3 R_Bprev_Bcur = attitude.TakeRotationSinceFrame();
     if (!first_frame) p.R_Cprev_Ccur = R_B_C.transpose() * R_Bprev_Bcur * R_B_C;
     first_frame = false;
-    if (attitude.level())
-      p.gravity_C = R_B_C.transpose() * attitude.R_W_B().transpose() * Vec3(0.0, 0.0, -1.0);
+    const std::optional<StateSample> latest = estimator.Latest();
+    if (!latest || !estimator.summary().initialized) {
+      if (attitude.level())
+        p.gravity_C = R_B_C.transpose() * attitude.R_W_B().transpose() * Vec3(0.0, 0.0, -1.0);
+      return p;
+    }
+    const double dt = NsToSeconds(t_ns - latest->t_ns);
+    const Rigid3 T_W_B(latest->T_W_B.R() * R_Bprev_Bcur,
+                       latest->T_W_B.translation() + dt * latest->v_W);
+    const Rigid3 T_C_W = (T_W_B * T_B_C).Inverse();
+    p.gravity_C = T_C_W.R() * Vec3(0.0, 0.0, -1.0);
+    const PinholeRadtan& cam = calibration.camera;
+    for (const backend::MapObject& o : estimator.Map()) {
+      Corners c;
+      bool ok = true;
+      for (int j = 0; j < 4 && ok; ++j) {
+        const Vec3 p_C = T_C_W * o.corners_W[j];
+        ok = p_C.z() > 0.1;
+        c[j] = Vec2(cam.fx * p_C.x() / p_C.z() + cam.cx, cam.fy * p_C.y() / p_C.z() + cam.cy);
+      }
+      if (ok) p.objects.emplace_back(o.id, c);
+    }
     return p;
   }
 };
@@ -100,7 +123,7 @@ void System::AddImu(const ImuSample& sample) {
 
 FrameOutput System::AddFrame(const Frame& frame) {
   frontend::Stopwatch sw;
-  const FramePrediction prediction = impl_->Predict();
+  const FramePrediction prediction = impl_->Predict(frame.t_ns);
   frontend::FrontEndResult fe = impl_->frontend.Process(frame, prediction);
   const double frontend_ms = sw.Lap();
   FrameOutput out = AddObservations(frame.t_ns, fe.observations);

@@ -1,22 +1,24 @@
-// The visual-inertial estimator: keyframe states (pose, velocity, IMU biases) and rectangle landmarks
-// (FSP, or the FHP baseline) in one Ceres problem, fed with IMU samples and per-frame object
-// observations (undistorted corners). DESIGN.md §4.
+// The visual-inertial estimator: keyframe states (pose, velocity, IMU biases) and rectangle
+// landmarks (FSP, or the FHP baseline) in one Ceres problem, fed with IMU samples and per-frame
+// object observations (undistorted corners). DESIGN.md §4.
 //
 // Modes:
 //  - kWindow (online): keyframes every keyframe_interval_s (default: every frame), the newest frame
 //    always solved with them; the problem holds the last `window_size` keyframes
 //    and the objects they see. When a keyframe leaves the window, the objects anchored at it are
 //    re-anchored exactly at the newest keyframe that sees s1 in front (reanchor.h); its inertial
-//    information (IMU factor to the next keyframe, the previous prior) is marginalised into a linear
-//    prior on the next keyframe by Schur complement; and its object observations stay as "past
-//    views" with its pose held constant (as a local bundle adjustment with fixed keyframes does), so
-//    objects keep what older views told about them without putting them in the dense prior.
-//    Why not marginalise the object observations too: objects live for the whole sequence, and a
-//    linear prior on their parameters, linearised while their depth is still poorly known (class
-//    prior, little parallax), pulled later solutions away (measured: ATE 15 cm vs 2 cm on the default
-//    scene's first 20 s). The cost per frame is bounded by the window and max_past_views, not the
-//    sequence length. Objects out of view stay in the map and are re-used when seen again.
-//  - kBatch (offline, the accuracy reference): every keyframe stays a variable; the growing problem is
+//    information (IMU factor to the next keyframe, the previous prior) is marginalised into a
+//    linear prior on the next keyframe by Schur complement; and its object observations stay as
+//    "past views" with its pose held constant (as a local bundle adjustment with fixed keyframes
+//    does), so objects keep what older views told about them without putting them in the dense
+//    prior. Why not marginalise the object observations too: objects live for the whole sequence,
+//    and a linear prior on their parameters, linearised while their depth is still poorly known
+//    (class prior, little parallax), pulled later solutions away (measured: ATE 15 cm vs 2 cm on
+//    the default scene's first 20 s). The cost per frame is bounded by the window and
+//    max_past_views, not the sequence length. Objects out of view stay in the map and are re-used
+//    when seen again.
+//  - kBatch (offline, the accuracy reference): every keyframe stays a variable; the growing problem
+//  is
 //    re-solved every `batch_solve_every` frames (IMU prediction in between) to keep the values near
 //    the optimum, and at the end one full problem over every keyframe and observation is solved to
 //    convergence.
@@ -31,6 +33,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -66,8 +69,8 @@ struct EstimatorOptions {
   int window_max_iterations = 6;
   // Batch mode re-solves the growing problem every this many frames.
   int batch_solve_every = 5;
-  // Iteration cap of every batch solve (the periodic ones and the final one); they stop earlier when
-  // converged.
+  // Iteration cap of every batch solve (the periodic ones and the final one); they stop earlier
+  // when converged.
   int batch_max_iterations = 60;
   // Corner noise [px] and robust loss on each observation.
   FspFactorOptions factor;
@@ -77,21 +80,23 @@ struct EstimatorOptions {
   // Static initialisation: the IMU over the first window_s seconds after the first frame must be
   // still; it gives gravity (roll, pitch), the gyroscope bias and zero velocity.
   StaticInitOptions static_init;
-  // Prior on the initial biases: the static start gives the gyro bias well; the accelerometer bias is
-  // only known to be small.
+  // Prior on the initial biases: the static start gives the gyro bias well; the accelerometer bias
+  // is only known to be small.
   double prior_gyro_bias_sigma = 0.01;  // [rad/s]
   double prior_acc_bias_sigma = 0.2;    // [m/s^2]
   // Weak prior on each object's log inverse depth around its single-view (class prior) value. Keeps
   // the problem well posed before parallax exists (hover); 1.0 = "within a factor e".
   double prior_log_omega_sigma = 1.0;
   // Views of an object from keyframes that left the window, kept as factors with the keyframe pose
-  // held constant (newest kept). They carry the object's accumulated information; more: better maps,
-  // more CPU per frame. The cost per frame stays bounded by window_size + max_past_views x objects in view.
+  // held constant (newest kept). They carry the object's accumulated information; more: better
+  // maps, more CPU per frame. The cost per frame stays bounded by window_size + max_past_views x
+  // objects in view.
   int max_past_views = 40;
   // An object constrains the poses only once it has been seen this many times; before that it is
-  // refined alone with the poses held constant (a wrong single-view guess cannot pull the trajectory).
-  // Measured (window, default scene, 1 px): 1 -> ATE 9.7 cm on the first 20 s, 10 -> 55 cm: objects
-  // held out for 10 frames leave the window to the IMU alone whenever objects change.
+  // refined alone with the poses held constant (a wrong single-view guess cannot pull the
+  // trajectory). Measured (window, default scene, 1 px): 1 -> ATE 9.7 cm on the first 20 s, 10 ->
+  // 55 cm: objects held out for 10 frames leave the window to the IMU alone whenever objects
+  // change.
   int mature_views = 1;
   // Box on each object's depth (through its log inverse depth) [m]. Indoors objects are seen from
   // 0.3..30 m; the box only matters for objects without parallax yet, which would otherwise drift.
@@ -99,10 +104,10 @@ struct EstimatorOptions {
   double max_depth_m = 30.0;
   // Window mode: an object seen again after it left the window, with its corners further than this
   // (RMS) from their prediction, is re-initialised as a new object (its past views hold poses from
-  // before a drift the window cannot undo) [px]. Smaller: fewer stale constraints, fewer small loops
-  // closed. 0 = always re-initialise. Measured (default scene, 1 px, mature_views 1, seeds 1/2/3):
-  // 0 -> ATE 0.20/0.18/0.18 m; 20 -> 0.41/0.35/0.24 m; no gate (large) -> diverges. The map reports
-  // the better-observed instance of a re-initialised object.
+  // before a drift the window cannot undo) [px]. Smaller: fewer stale constraints, fewer small
+  // loops closed. 0 = always re-initialise. Measured (default scene, 1 px, mature_views 1, seeds
+  // 1/2/3): 0 -> ATE 0.20/0.18/0.18 m; 20 -> 0.41/0.35/0.24 m; no gate (large) -> diverges. The map
+  // reports the better-observed instance of a re-initialised object.
   double reinit_gate_px = 0.0;
   // Objects (instances) seen by fewer keyframes than this are not reported in the map.
   int min_observations = 3;
@@ -114,25 +119,28 @@ struct MapObject {
   int id = -1;
   ObjectClass object_class = ObjectClass::kUnknown;
   std::array<Vec3, 4> corners_W;
-  double width = 0.0, height = 0.0;              // [m]
-  double width_sigma = 0.0, height_sigma = 0.0;  // 1-σ from the estimator's covariance [m]; <0 unknown
+  double width = 0.0, height = 0.0;  // [m]
+  double width_sigma = 0.0,
+         height_sigma = 0.0;  // 1-σ from the estimator's covariance [m]; <0 unknown
   Rigid3 T_W_O;
   int observations = 0;
 };
 
 struct EstimatorSummary {
   bool initialized = false;
-  std::string init_failure;         // why the static initialisation refused (empty when fine)
-  int frames = 0;                   // frames given to AddFrame
-  int keyframes = 0;                // keyframes created
-  int observations_used = 0;        // observations of objects in the map (they become factors)
-  int observations_rejected = 0;    // first views whose single-view initialisation failed
+  std::string init_failure;       // why the static initialisation refused (empty when fine)
+  int frames = 0;                 // frames given to AddFrame
+  int keyframes = 0;              // keyframes created
+  int observations_used = 0;      // observations of objects in the map (they become factors)
+  int observations_rejected = 0;  // first views whose single-view initialisation failed
   int reanchors = 0;
-  int objects_reinitialized = 0;    // window: objects seen again after leaving the window, started afresh
+  int objects_reinitialized =
+      0;  // window: objects seen again after leaving the window, started afresh
   int marginalizations = 0;
   int marginalization_failures = 0;  // Schur complement failed: the prior was dropped
-  std::vector<double> backend_ms;   // wall time of each frame's update (solve + marginalisation) [ms]
-  double batch_solve_ms = 0.0;      // the final full solve (batch mode) [ms]
+  std::vector<double>
+      backend_ms;               // wall time of each frame's update (solve + marginalisation) [ms]
+  double batch_solve_ms = 0.0;  // the final full solve (batch mode) [ms]
   double final_cost = 0.0;
 };
 
@@ -145,18 +153,22 @@ class Estimator {
 
   // IMU samples in time order (a sample older than the last one throws InputError).
   void AddImu(const ImuSample& sample);
-  // One frame's observations (corners undistorted, s1..s4). Frames in time order, after the IMU that
-  // covers them. Returns false while the estimator is not initialised (the frame is buffered until
-  // the static interval is complete) or after the initialisation refused (summary().init_failure).
+  // One frame's observations (corners undistorted, s1..s4). Frames in time order, after the IMU
+  // that covers them. Returns false while the estimator is not initialised (the frame is buffered
+  // until the static interval is complete) or after the initialisation refused
+  // (summary().init_failure).
   bool AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& observations);
   // Ends the sequence: final window solve, or the full batch solve.
   void Finish();
 
-  // Body pose per frame: in window mode a keyframe's estimate when it left the window (or the final one
-  // for the last window), a frame that was not kept as a keyframe relative to the keyframe before it
-  // (its own solve gave the relative pose); in batch mode the batch solution.
+  // Body pose per frame: in window mode a keyframe's estimate when it left the window (or the final
+  // one for the last window), a frame that was not kept as a keyframe relative to the keyframe
+  // before it (its own solve gave the relative pose); in batch mode the batch solution.
   std::vector<StampedPose> Trajectory() const;
   std::vector<StateSample> States() const;
+  // The estimate of the newest frame given to AddFrame (as Trajectory() reports it), or nullopt
+  // before the first. O(1): what a caller predicting the next frame needs.
+  std::optional<StateSample> Latest() const;
   // Objects with >= min_observations whose depth is not on the min/max_depth_m box (unconstrained),
   // with width/height σ from the covariance (after Finish()).
   std::vector<MapObject> Map() const;
