@@ -272,6 +272,213 @@ struct FrontEnd::Impl {
     if (best_id >= 0 && best_sim - second_sim < o.reid_min_margin) return -1;
     return best_id;
   }
+
+  // What one Process call builds up.
+  struct FrameWork {
+    FrameWork(const cv::Mat& g, const FramePrediction& p, const FrontEndOptions& opt)
+        : gray(g), prediction(p), o(opt) {}
+    const cv::Mat& gray;
+    const FramePrediction& prediction;
+    const FrontEndOptions& o;
+    FrontEndResult result;
+    std::map<int, Corners> tracked;         // this frame's corners of the live objects
+    std::map<int, Corners> from_detection;  // corners of objects (re)started in this frame
+    std::map<int, double> score;            // their confidence (tracker or detector)
+    std::set<int> out_of_view;              // tracked, but a corner is outside the image
+  };
+
+  // Tracks every live object (corners predicted through the gyroscope's rotation). Returns whether
+  // a confirmed object was lost; a candidate lost before confirmation is forgotten.
+  bool TrackAll(FrameWork* w) {
+    std::map<int, Corners> predicted;
+    if (w->prediction.R_Cprev_Ccur)
+      for (const auto& [id, info] : objects)
+        if (info.active) predicted[id] = RotateCorners(info.last, K, *w->prediction.R_Cprev_Ccur);
+    bool lost = false;
+    for (const TrackedObject& t : tracker.Track(w->gray, predicted)) {
+      ObjectInfo& info = objects[t.id];
+      if (t.tracked) {
+        info.last = t.corners_undistorted;
+        w->tracked[t.id] = t.corners_undistorted;
+        if (!t.in_view) w->out_of_view.insert(t.id);  // tracked on, not observed
+        w->score[t.id] = t.score;
+        continue;
+      }
+      info.active = false;
+      if (info.confirmed) {
+        ++w->result.lost;
+        lost = true;
+      } else {
+        tracker.Drop(t.id);
+        objects.erase(t.id);
+      }
+    }
+    return lost;
+  }
+
+  bool DetectionDue(bool lost_now, const FrontEndOptions& o) const {
+    int candidates = 0, confirmed_live = 0;
+    for (const auto& [id, info] : objects)
+      if (info.active) (info.confirmed ? confirmed_live : candidates)++;
+    return frame_index - last_detect_frame >= o.detect_every || candidates > 0 || lost_now ||
+           lost_last_frame || confirmed_live == 0;
+  }
+
+  // One more detection run that saw the object; confirms a candidate after confirm_detections.
+  void Vote(ObjectInfo& info, const Detection& d, FrameWork* w) const {
+    ++info.detections;
+    ++info.class_votes[d.object_class];
+    if (!info.confirmed && info.detections >= w->o.confirm_detections) {
+      info.confirmed = true;
+      ++w->result.started;
+    }
+  }
+
+  // Makes object ID live at CORNERS from detection D (a new one, or a resumed one).
+  void Activate(int id, const Corners& corners, const Detection& d, FrameWork* w) {
+    ObjectInfo& info = objects[id];
+    info.active = true;
+    info.last = corners;
+    Vote(info, d, w);
+    w->from_detection[id] = corners;
+    w->score[id] = d.score;
+  }
+
+  // Decoded tags: the tag id is the identity (a live one is confirmed, a dormant one resumed, an
+  // unknown one started).
+  void AssociateTags(const std::vector<Detection>& dets, std::vector<bool>* used, FrameWork* w) {
+    for (size_t i = 0; i < dets.size(); ++i) {
+      const Detection& d = dets[i];
+      if (d.tag_id < 0) continue;
+      (*used)[i] = true;
+      auto it = objects.find(d.tag_id);
+      if (it != objects.end() && it->second.active) {
+        Vote(it->second, d, w);
+        continue;
+      }
+      const bool known = it != objects.end();
+      if (known ? !tracker.Resume(d.tag_id, w->gray, d.corners_undistorted)
+                : !tracker.Start(d.tag_id, w->gray, d.corners_undistorted))
+        continue;
+      ObjectInfo& info = objects[d.tag_id];
+      info.is_tag = true;
+      if (known && info.confirmed) ++w->result.reidentified;
+      Activate(d.tag_id, d.corners_undistorted, d, w);
+    }
+  }
+
+  // A plain track on a decoded tag is the tag seen as a rectangle (a mix of its black square and
+  // its margin, say): the tag's identity wins and the plain track ends.
+  void EndPlainTracksOnTags(const std::vector<Detection>& dets, FrameWork* w) {
+    for (const Detection& d : dets) {
+      if (d.tag_id < 0) continue;
+      for (auto it = w->tracked.begin(); it != w->tracked.end();) {
+        const int id = it->first;
+        if (objects[id].is_tag || !InsideConvex(d.corners_undistorted, Centroid(it->second)) ||
+            MeanCornerDistance(it->second, d.corners_undistorted) >
+                0.5 * ShortestSide(d.corners_undistorted)) {
+          ++it;
+          continue;
+        }
+        tracker.Drop(id);
+        objects.erase(id);
+        it = w->tracked.erase(it);
+      }
+    }
+  }
+
+  // Plain detections to live tracks, nearest first; a matched track that is more than correct_px
+  // off the detection is put onto it (unless the detection touches the border).
+  void MatchTracks(const std::vector<Detection>& dets, std::vector<bool>* used, FrameWork* w) {
+    struct Pair {
+      double dist;
+      size_t det;
+      int id;
+    };
+    std::vector<Pair> pairs;
+    for (size_t i = 0; i < dets.size(); ++i) {
+      if ((*used)[i]) continue;
+      for (const auto& [id, c] : w->tracked) {
+        const double dist = MeanCornerDistance(c, dets[i].corners_undistorted);
+        if (dist <= std::max(3.0, w->o.match_gate_frac * ShortestSide(c)))
+          pairs.push_back({dist, i, id});
+      }
+    }
+    std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+      return a.dist != b.dist ? a.dist < b.dist : a.det != b.det ? a.det < b.det : a.id < b.id;
+    });
+    std::set<int> track_matched;
+    for (const Pair& p : pairs) {
+      if ((*used)[p.det] || track_matched.count(p.id)) continue;
+      (*used)[p.det] = true;
+      track_matched.insert(p.id);
+      const Detection& d = dets[p.det];
+      ObjectInfo& info = objects[p.id];
+      Vote(info, d, w);
+      Corners& track = w->tracked[p.id];
+      int shift = 0;
+      MeanCornerDistance(track, d.corners_undistorted, &shift);
+      const Corners c = Shifted(d.corners_undistorted, shift);  // in the track's order
+      double worst = 0.0;
+      for (int j = 0; j < 4; ++j) worst = std::max(worst, (c[j] - track[j]).norm());
+      if (worst > w->o.correct_px && AwayFromBorder(d, w->o) && tracker.Resume(p.id, w->gray, c)) {
+        track = c;
+        info.last = c;
+        ++w->result.corrected;
+      }
+    }
+  }
+
+  // Detections no track took: re-identified dormant objects resume, others start candidates. A
+  // detection on a live object (an outline nested in it, a track a little off) starts nothing, nor
+  // does an undecoded tag.
+  void StartOrResume(const std::vector<Detection>& dets, const std::vector<bool>& used,
+                     FrameWork* w) {
+    for (size_t i = 0; i < dets.size(); ++i) {
+      if (used[i]) continue;
+      const Detection& d = dets[i];
+      const Vec2 centre = Centroid(d.corners_undistorted);
+      bool on_live = false;
+      for (const auto& [id, c] : w->tracked) on_live = on_live || InsideConvex(c, centre);
+      if (on_live) continue;
+      Corners corners;
+      int id = Reidentify(w->gray, d, w->prediction, w->o, &corners);
+      if (id < 0 && d.object_class == ObjectClass::kTag) continue;
+      if (id >= 0) {
+        if (!tracker.Resume(id, w->gray, corners)) continue;
+        ++w->result.reidentified;
+      } else {
+        corners = d.corners_undistorted;
+        id = next_rect_id;
+        if (!tracker.Start(id, w->gray, corners)) continue;
+        ++next_rect_id;
+      }
+      Activate(id, corners, d, w);
+    }
+  }
+
+  // One observation per confirmed object seen in this frame with its four corners in view.
+  void Emit(int64_t t_ns, FrameWork* w) {
+    for (const std::map<int, Corners>* source : {&w->tracked, &w->from_detection})
+      for (const auto& [id, c] : *source) {
+        const ObjectInfo& info = objects[id];
+        const bool by_track = source == &w->tracked;
+        if (!info.confirmed) continue;
+        if (by_track && (w->from_detection.count(id) || w->out_of_view.count(id))) continue;
+        ObjectObservation obs;
+        obs.t_ns = t_ns;
+        obs.object_id = id;
+        obs.object_class = info.Class();
+        obs.corners = c;
+        obs.score = w->score[id];
+        w->result.observations.push_back(obs);
+      }
+    std::sort(w->result.observations.begin(), w->result.observations.end(),
+              [](const ObjectObservation& a, const ObjectObservation& b) {
+                return a.object_id < b.object_id;
+              });
+    for (const auto& [id, info] : objects) w->result.candidates += info.active && !info.confirmed;
+  }
 };
 
 FrontEnd::FrontEnd(const PinholeRadtan& camera, Options options)
@@ -289,7 +496,6 @@ ObjectClass FrontEnd::ClassOf(int object_id) const {
 
 FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& prediction) {
   Impl& m = *impl_;
-  const Options& o = options_;
   const cv::Mat& gray = frame.image;
   if (gray.empty() || gray.type() != CV_8UC1)
     throw InputError(frame.source + ": the front end needs an 8-bit grey image");
@@ -297,195 +503,30 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
     throw InputError(frame.source + ": image is " + std::to_string(gray.cols) + "x" +
                      std::to_string(gray.rows) + " but the calibration is " +
                      std::to_string(m.camera.width) + "x" + std::to_string(m.camera.height));
-  FrontEndResult result;
+  Impl::FrameWork w(gray, prediction, options_);
   Stopwatch sw;
-
-  // 1. track (every frame, also with no live object: the tracker keeps the frame for Start/Resume).
-  std::map<int, Corners> predicted;
-  if (prediction.R_Cprev_Ccur)
-    for (const auto& [id, info] : m.objects)
-      if (info.active) predicted[id] = RotateCorners(info.last, m.K, *prediction.R_Cprev_Ccur);
-  std::map<int, Corners> tracked;  // this frame's corners of the live objects
-  std::map<int, double> score;     // their confidence (tracker or detector)
-  std::set<int> out_of_view;       // ... of which a corner is outside the image
-  bool lost_now = false;
-  for (const TrackedObject& t : m.tracker.Track(gray, predicted)) {
-    ObjectInfo& info = m.objects[t.id];
-    if (t.tracked) {
-      info.last = t.corners_undistorted;
-      tracked[t.id] = t.corners_undistorted;
-      // Tracked on, but a corner out of the image is not observed: no observation.
-      if (!t.in_view) out_of_view.insert(t.id);
-      score[t.id] = t.score;
-      continue;
-    }
-    info.active = false;
-    if (info.confirmed) {
-      ++result.lost;
-      lost_now = true;
-    } else {
-      m.tracker.Drop(t.id);  // a candidate lost before confirmation is forgotten
-      m.objects.erase(t.id);
-    }
-  }
-  result.times.Add("track", sw.Lap());
-
-  // 2. detect where needed.
-  int candidates = 0, confirmed_live = 0;
-  for (const auto& [id, info] : m.objects)
-    if (info.active) (info.confirmed ? confirmed_live : candidates)++;
-  const bool due = m.frame_index - m.last_detect_frame >= o.detect_every || candidates > 0 ||
-                   lost_now || m.lost_last_frame || confirmed_live == 0;
-  m.lost_last_frame = lost_now;
+  const bool lost_now = m.TrackAll(&w);
+  w.result.times.Add("track", sw.Lap());
   std::vector<Detection> dets;
-  if (due) {
-    dets = m.Detect(gray, prediction, o);
+  if (m.DetectionDue(lost_now, options_)) {
+    dets = m.Detect(gray, prediction, options_);
     m.last_detect_frame = m.frame_index;
-    result.detected = true;
-    result.detections = static_cast<int>(dets.size());
+    w.result.detected = true;
+    w.result.detections = static_cast<int>(dets.size());
   }
-  result.times.Add("detect", sw.Lap());
-
-  // 3. associate. Tags by id first, then plain rectangles to live tracks by corner distance
-  // (greedy, nearest first), then re-identification or a new candidate.
-  std::map<int, Corners> from_detection;  // corners of objects (re)started in this frame
+  m.lost_last_frame = lost_now;
+  w.result.times.Add("detect", sw.Lap());
+  // Tags by id first, then plain rectangles to live tracks by corner distance (greedy, nearest
+  // first), then re-identification or a new candidate.
   std::vector<bool> used(dets.size(), false);
-  auto vote = [&](ObjectInfo& info, const Detection& d) {
-    ++info.detections;
-    ++info.class_votes[d.object_class];
-    if (!info.confirmed && info.detections >= o.confirm_detections) {
-      info.confirmed = true;
-      ++result.started;
-    }
-  };
-  for (size_t i = 0; i < dets.size(); ++i) {
-    const Detection& d = dets[i];
-    if (d.tag_id < 0) continue;
-    used[i] = true;
-    auto it = m.objects.find(d.tag_id);
-    if (it != m.objects.end() && it->second.active) {
-      vote(it->second, d);
-      continue;
-    }
-    const bool known = it != m.objects.end();
-    if (known ? !m.tracker.Resume(d.tag_id, gray, d.corners_undistorted)
-              : !m.tracker.Start(d.tag_id, gray, d.corners_undistorted))
-      continue;
-    ObjectInfo& info = m.objects[d.tag_id];
-    info.is_tag = true;
-    if (known && info.confirmed) ++result.reidentified;
-    info.active = true;
-    info.last = d.corners_undistorted;
-    vote(info, d);
-    from_detection[d.tag_id] = d.corners_undistorted;
-    score[d.tag_id] = d.score;
-  }
-  // A plain track on a decoded tag is the tag seen as a rectangle (a mix of its black square and
-  // its margin, say): the tag's identity wins and the plain track ends.
-  for (size_t i = 0; i < dets.size(); ++i) {
-    if (dets[i].tag_id < 0) continue;
-    for (auto it = tracked.begin(); it != tracked.end();) {
-      const int id = it->first;
-      if (m.objects[id].is_tag ||
-          !InsideConvex(dets[i].corners_undistorted, Centroid(it->second)) ||
-          MeanCornerDistance(it->second, dets[i].corners_undistorted) >
-              0.5 * ShortestSide(dets[i].corners_undistorted)) {
-        ++it;
-        continue;
-      }
-      m.tracker.Drop(id);
-      m.objects.erase(id);
-      it = tracked.erase(it);
-    }
-  }
-  struct Pair {
-    double dist;
-    size_t det;
-    int id;
-  };
-  std::vector<Pair> pairs;
-  for (size_t i = 0; i < dets.size(); ++i) {
-    if (used[i]) continue;
-    for (const auto& [id, c] : tracked) {
-      const double dist = MeanCornerDistance(c, dets[i].corners_undistorted);
-      if (dist <= std::max(3.0, o.match_gate_frac * ShortestSide(c)))
-        pairs.push_back({dist, i, id});
-    }
-  }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
-    return a.dist != b.dist ? a.dist < b.dist : a.det != b.det ? a.det < b.det : a.id < b.id;
-  });
-  std::map<int, bool> track_matched;
-  for (const Pair& p : pairs) {
-    if (used[p.det] || track_matched[p.id]) continue;
-    used[p.det] = true;
-    track_matched[p.id] = true;
-    ObjectInfo& info = m.objects[p.id];
-    vote(info, dets[p.det]);
-    // The detection's corners in the track's order; far from the track's: the track is corrected.
-    int shift = 0;
-    MeanCornerDistance(tracked[p.id], dets[p.det].corners_undistorted, &shift);
-    const Corners c = Shifted(dets[p.det].corners_undistorted, shift);
-    double worst = 0.0;
-    for (int j = 0; j < 4; ++j) worst = std::max(worst, (c[j] - tracked[p.id][j]).norm());
-    if (worst > o.correct_px && m.AwayFromBorder(dets[p.det], o) &&
-        m.tracker.Resume(p.id, gray, c)) {
-      tracked[p.id] = c;
-      info.last = c;
-      ++result.corrected;
-    }
-  }
-  for (size_t i = 0; i < dets.size(); ++i) {
-    if (used[i]) continue;
-    const Detection& d = dets[i];
-    // A detection on a live object that its track does not match closely (an outline nested in it,
-    // a track a little off) starts nothing.
-    const Vec2 centre = Centroid(d.corners_undistorted);
-    bool on_live = false;
-    for (const auto& [id, c] : tracked) on_live = on_live || InsideConvex(c, centre);
-    if (on_live) continue;
-    Corners corners;
-    int id = m.Reidentify(gray, d, prediction, o, &corners);
-    if (id < 0 && d.object_class == ObjectClass::kTag) continue;  // an undecoded tag starts nothing
-    if (id >= 0) {
-      if (!m.tracker.Resume(id, gray, corners)) continue;
-      ++result.reidentified;
-    } else {
-      corners = d.corners_undistorted;
-      id = m.next_rect_id;
-      if (!m.tracker.Start(id, gray, corners)) continue;
-      ++m.next_rect_id;
-    }
-    ObjectInfo& info = m.objects[id];
-    info.active = true;
-    info.last = corners;
-    vote(info, d);
-    from_detection[id] = corners;
-    score[id] = d.score;
-  }
-  result.times.Add("associate", sw.Lap());
-
-  // 4. emit the confirmed objects seen in this frame.
-  for (const std::map<int, Corners>* source : {&tracked, &from_detection})
-    for (const auto& [id, c] : *source) {
-      const ObjectInfo& info = m.objects[id];
-      if (!info.confirmed || (source == &tracked && from_detection.count(id))) continue;
-      if (source == &tracked && out_of_view.count(id)) continue;
-      ObjectObservation obs;
-      obs.t_ns = frame.t_ns;
-      obs.object_id = id;
-      obs.object_class = info.Class();
-      obs.corners = c;
-      obs.score = score[id];
-      result.observations.push_back(obs);
-    }
-  std::sort(result.observations.begin(), result.observations.end(),
-            [](const ObjectObservation& a, const ObjectObservation& b) {
-              return a.object_id < b.object_id;
-            });
-  for (const auto& [id, info] : m.objects) result.candidates += info.active && !info.confirmed;
+  m.AssociateTags(dets, &used, &w);
+  m.EndPlainTracksOnTags(dets, &w);
+  m.MatchTracks(dets, &used, &w);
+  m.StartOrResume(dets, used, &w);
+  w.result.times.Add("associate", sw.Lap());
+  m.Emit(frame.t_ns, &w);
   ++m.frame_index;
-  return result;
+  return std::move(w.result);
 }
 
 }  // namespace fsp::frontend
