@@ -1,0 +1,97 @@
+// The front end as one component (FrontEnd): candidates are confirmed before they are reported, ids
+// stay with their objects while tracked, an object that leaves the view is reported nowhere, and on
+// return it is re-identified under its old id. Synthetic frames: plain rectangles under perspective
+// drawn with exact corners (synthetic.h), moving a pixel per frame.
+#include <gtest/gtest.h>
+
+#include "fsp/common/error.h"
+#include "fsp/frontend/frontend.h"
+#include "synthetic.h"
+
+namespace fsp::frontend {
+namespace {
+
+constexpr double kF = 500.0, kCx = 319.5, kCy = 239.5;
+
+PinholeRadtan Camera() {
+  PinholeRadtan c;
+  c.width = 640;
+  c.height = 480;
+  c.fx = c.fy = kF;
+  c.cx = kCx;
+  c.cy = kCy;
+  return c;
+}
+
+// Frame k: a door on the left and a window on the right, both sliding right by a pixel per frame;
+// the window is absent (out of view) in frames [absent_from, absent_to).
+Frame MakeFrame(int k, int absent_from, int absent_to, std::vector<Corners>* truth) {
+  const double dx = 0.008 * k;  // ~1 px per frame at 4 m
+  std::vector<test::SyntheticRect> rects;
+  rects.push_back(
+      {test::ProjectRect(0.9, 2.0, Vec3(-1.0 + dx, 0.1, 4.0), 0.35, 0.0, 0.0, kF, kCx, kCy), 150});
+  if (k < absent_from || k >= absent_to)
+    rects.push_back(
+        {test::ProjectRect(1.2, 1.0, Vec3(0.9 + dx, -0.5, 4.5), -0.5, 0.1, 0.0, kF, kCx, kCy),
+         220});
+  truth->clear();
+  for (const auto& r : rects) truth->push_back(r.corners);
+  Frame f;
+  f.t_ns = 1'000'000'000 + int64_t{k} * 50'000'000;
+  f.index = k;
+  f.source = "synthetic#" + std::to_string(k);
+  f.image = test::RenderQuads(640, 480, rects, 0.8, 2.0, static_cast<uint32_t>(100 + k));
+  return f;
+}
+
+// The id of the observation nearest to corners C (mean corner distance < 3 px), or -1.
+int IdAt(const std::vector<ObjectObservation>& obs, const Corners& c) {
+  for (const ObjectObservation& o : obs) {
+    double d = 0.0;
+    for (int j = 0; j < 4; ++j) d += 0.25 * (o.corners[j] - c[j]).norm();
+    if (d < 3.0) return o.object_id;
+  }
+  return -1;
+}
+
+TEST(FrontEndComponent, ConfirmsTracksLosesAndReidentifies) {
+  FrontEndOptions options;
+  FrontEnd fe(Camera(), options);
+  std::vector<Corners> truth;
+  int door = -1, window = -1;
+  for (int k = 0; k < 40; ++k) {
+    const bool absent = k >= 15 && k < 25;
+    const FrontEndResult r = fe.Process(MakeFrame(k, 15, 25, &truth));
+    if (k == 0) {
+      EXPECT_TRUE(r.observations.empty()) << "reported before confirmation";
+      EXPECT_EQ(r.candidates, 2);
+      continue;
+    }
+    if (k < 8) continue;  // confirmation takes confirm_detections detection runs
+    ASSERT_EQ(r.observations.size(), absent ? 1u : 2u) << "frame " << k;
+    const int d = IdAt(r.observations, truth[0]);
+    ASSERT_GE(d, options.first_rect_id) << "frame " << k;
+    if (door < 0) door = d;
+    EXPECT_EQ(d, door) << "frame " << k;
+    if (absent) continue;
+    const int w = IdAt(r.observations, truth[1]);
+    ASSERT_GE(w, options.first_rect_id) << "frame " << k;
+    if (window < 0) window = w;
+    EXPECT_EQ(w, window) << "frame " << k << ": the window came back under another id";
+  }
+  EXPECT_NE(door, window);
+  EXPECT_EQ(fe.ClassOf(door), ObjectClass::kDoor);
+}
+
+TEST(FrontEndComponent, RejectsWrongImagesWithAClearError) {
+  FrontEnd fe(Camera());
+  Frame f;
+  f.source = "x.png";
+  f.image = cv::Mat(240, 320, CV_8UC1, cv::Scalar(0));
+  EXPECT_THROW(fe.Process(f), InputError);
+  f.image = cv::Mat(480, 640, CV_16UC1, cv::Scalar(0));
+  EXPECT_THROW(fe.Process(f), InputError);
+}
+
+}  // namespace
+}  // namespace fsp::frontend
