@@ -1,7 +1,7 @@
-// fsp bench [--quick] --out DIR: renders the default scene, runs {fsp, fhp} x {window, batch} with the
-// gt-corners front end (σ = 1 px), evaluates each run and writes DIR/bench.json and DIR/bench.md (a
-// markdown table for the README); then checks the accuracy gate (assets/bench/thresholds.yaml) and exits
-// non-zero when an enforced bound is crossed.
+// fsp bench [--quick] --out DIR: renders the default scene, runs {fsp, fhp} x {window, batch} with
+// the gt-corners front end (σ = 1 px), evaluates each run and writes DIR/bench.json and
+// DIR/bench.md (a markdown table for the README); then checks the accuracy gate
+// (assets/bench/thresholds.yaml) and exits non-zero when an enforced bound is crossed.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -50,10 +50,11 @@ struct Variant {
   backend::LandmarkType landmarks;
   backend::EstimatorMode mode;
 };
-const Variant kVariants[] = {{"fsp-window", backend::LandmarkType::kFsp, backend::EstimatorMode::kWindow},
-                             {"fsp-batch", backend::LandmarkType::kFsp, backend::EstimatorMode::kBatch},
-                             {"fhp-window", backend::LandmarkType::kFhp, backend::EstimatorMode::kWindow},
-                             {"fhp-batch", backend::LandmarkType::kFhp, backend::EstimatorMode::kBatch}};
+const Variant kVariants[] = {
+    {"fsp-window", backend::LandmarkType::kFsp, backend::EstimatorMode::kWindow},
+    {"fsp-batch", backend::LandmarkType::kFsp, backend::EstimatorMode::kBatch},
+    {"fhp-window", backend::LandmarkType::kFhp, backend::EstimatorMode::kWindow},
+    {"fhp-batch", backend::LandmarkType::kFhp, backend::EstimatorMode::kBatch}};
 
 // Trajectory block of one alignment.
 eval::Metrics EvaluateWith(const eval::EvalPaths& paths, eval::AlignMode align) {
@@ -63,7 +64,8 @@ eval::Metrics EvaluateWith(const eval::EvalPaths& paths, eval::AlignMode align) 
 }
 
 // One configuration's row of bench.json: the metrics (names as in the gate file) or an "error".
-Json RunVariant(const Variant& v, const std::string& sequence, const fs::path& run_dir, const RunConfig& base) {
+Json RunVariant(const Variant& v, const std::string& sequence, const fs::path& run_dir,
+                const RunConfig& base) {
   Json row;
   RunConfig config = base;
   config.estimator.landmarks = v.landmarks;
@@ -144,7 +146,8 @@ std::string Cell(const Json& row, const char* key, double scale, int decimals) {
 
 std::string MarkdownTable(const Json& rows, const Json& meta) {
   std::ostringstream md;
-  md << "| config | ATE SE3 [cm] | ATE posyaw [cm] | scale err [%] | RPE [cm/frame] | RPE [deg/frame] | "
+  md << "| config | ATE SE3 [cm] | ATE posyaw [cm] | scale err [%] | RPE [cm/frame] | RPE "
+        "[deg/frame] | "
         "corner err mean / median [cm] | width err mean / max [cm] | height err mean / max [cm] | "
         "objects | back end ms/kf median / p90 | real time |\n";
   md << "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -154,14 +157,16 @@ std::string MarkdownTable(const Json& rows, const Json& meta) {
       md << " | error: " << row["error"].get<std::string>() << " |||||||||||\n";
       continue;
     }
-    md << " | " << Cell(row, "ate_se3_m", 100, 2) << " | " << Cell(row, "ate_posyaw_m", 100, 2) << " | "
-       << Cell(row, "scale_err", 100, 2) << " | " << Cell(row, "rpe_trans_m", 100, 3) << " | "
-       << Cell(row, "rpe_rot_deg", 1, 3) << " | " << Cell(row, "corner_err_mean_m", 100, 2) << " / "
-       << Cell(row, "corner_err_median_m", 100, 2) << " | " << Cell(row, "width_err_mean_m", 100, 2) << " / "
-       << Cell(row, "width_err_max_m", 100, 2) << " | " << Cell(row, "height_err_mean_m", 100, 2) << " / "
-       << Cell(row, "height_err_max_m", 100, 2) << " | " << Cell(row, "objects_matched", 1, 0) << "/"
-       << Cell(row, "objects_gt", 1, 0) << " | " << Cell(row, "backend_ms_median", 1, 2) << " / "
-       << Cell(row, "backend_ms_p90", 1, 2) << " | " << Cell(row, "realtime_factor", 1, 1) << "x |\n";
+    md << " | " << Cell(row, "ate_se3_m", 100, 2) << " | " << Cell(row, "ate_posyaw_m", 100, 2)
+       << " | " << Cell(row, "scale_err", 100, 2) << " | " << Cell(row, "rpe_trans_m", 100, 3)
+       << " | " << Cell(row, "rpe_rot_deg", 1, 3) << " | " << Cell(row, "corner_err_mean_m", 100, 2)
+       << " / " << Cell(row, "corner_err_median_m", 100, 2) << " | "
+       << Cell(row, "width_err_mean_m", 100, 2) << " / " << Cell(row, "width_err_max_m", 100, 2)
+       << " | " << Cell(row, "height_err_mean_m", 100, 2) << " / "
+       << Cell(row, "height_err_max_m", 100, 2) << " | " << Cell(row, "objects_matched", 1, 0)
+       << "/" << Cell(row, "objects_gt", 1, 0) << " | " << Cell(row, "backend_ms_median", 1, 2)
+       << " / " << Cell(row, "backend_ms_p90", 1, 2) << " | " << Cell(row, "realtime_factor", 1, 1)
+       << "x |\n";
   }
   md << "\n" << meta["sequence_note"].get<std::string>() << "\n";
   return md.str();
@@ -169,7 +174,8 @@ std::string MarkdownTable(const Json& rows, const Json& meta) {
 
 std::string GateTable(const std::vector<GateResult>& results) {
   std::ostringstream md;
-  md << "| config | metric | value | bound | target | enforced | result |\n|---|---|---|---|---|---|---|\n";
+  md << "| config | metric | value | bound | target | enforced | result "
+        "|\n|---|---|---|---|---|---|---|\n";
   char buf[64];
   for (const GateResult& r : results) {
     const GateCheck& c = r.check;
@@ -189,8 +195,8 @@ std::string GateTable(const std::vector<GateResult>& results) {
     } else {
       md << "-";
     }
-    md << " | " << (c.enforced ? "yes" : "no") << " | " << (r.pass ? "pass" : (c.enforced ? "FAIL" : "outside"))
-       << " |\n";
+    md << " | " << (c.enforced ? "yes" : "no") << " | "
+       << (r.pass ? "pass" : (c.enforced ? "FAIL" : "outside")) << " |\n";
   }
   return md.str();
 }
@@ -215,7 +221,8 @@ void RunBench(const BenchArgs& args) {
     sim::SequenceOptions options;
     options.video = false;  // gt-corners reads the EuRoC layout; the video is not needed
     sequence = (out / "sequence").string();
-    std::printf("bench: rendering %s (%.0f s) into %s ...\n", args.scene.c_str(), scene.duration_s, sequence.c_str());
+    std::printf("bench: rendering %s (%.0f s) into %s ...\n", args.scene.c_str(), scene.duration_s,
+                sequence.c_str());
     std::fflush(stdout);
     const sim::SequenceSummary s = sim::WriteSequence(scene, sequence, options);
     meta["scene"] = args.scene;
@@ -223,8 +230,9 @@ void RunBench(const BenchArgs& args) {
     meta["render_wall_s"] = s.render_wall_s;
     meta["objects"] = s.objects;
     meta["sequence_note"] = "Scene " + fs::path(args.scene).filename().string() + ", " +
-                            std::to_string(static_cast<int>(scene.duration_s)) + " s, " + std::to_string(s.frames) +
-                            " frames, " + std::to_string(s.objects) + " objects; gt-corners front end, sigma " +
+                            std::to_string(static_cast<int>(scene.duration_s)) + " s, " +
+                            std::to_string(s.frames) + " frames, " + std::to_string(s.objects) +
+                            " objects; gt-corners front end, sigma " +
                             std::to_string(args.pixel_sigma).substr(0, 4) + " px; `fsp bench" +
                             (args.quick ? " --quick" : "") + "`.";
   } else {
@@ -237,7 +245,8 @@ void RunBench(const BenchArgs& args) {
   meta["seed"] = base.gt_corners.seed;
 
   Json rows = Json::object();
-  for (const Variant& v : kVariants) rows[v.name] = RunVariant(v, sequence, out / "runs" / v.name, base);
+  for (const Variant& v : kVariants)
+    rows[v.name] = RunVariant(v, sequence, out / "runs" / v.name, base);
 
   const std::vector<GateResult> gate = EvaluateGate(checks, rows);
   const bool pass = GatePasses(gate);
@@ -272,8 +281,8 @@ void RunBench(const BenchArgs& args) {
     if (!f) throw InputError((out / "bench.md").string() + ": cannot write");
   }
   std::printf("\n%s\n%s\n", table.c_str(), gate_table.c_str());
-  std::printf("bench: wrote %s and %s (%.0f s)\n", (out / "bench.json").c_str(), (out / "bench.md").c_str(),
-              meta["wall_s"].get<double>());
+  std::printf("bench: wrote %s and %s (%.0f s)\n", (out / "bench.json").c_str(),
+              (out / "bench.md").c_str(), meta["wall_s"].get<double>());
   if (!pass) {
     std::fprintf(stderr, "fsp: error: accuracy gate failed (%s): see %s\n", args.thresholds.c_str(),
                  (out / "bench.md").c_str());
@@ -287,18 +296,24 @@ void AddBenchCommand(CLI::App& root) {
   auto args = std::make_shared<BenchArgs>();
   auto* sub = root.add_subcommand(
       "bench",
-      "Benchmark: render the default scene, run {fsp, fhp} x {window, batch} with the gt-corners front end\n"
-      "(sigma 1 px), evaluate each (ATE SE3/posyaw, Sim3 scale, RPE, corner/width/height errors, back-end time,\n"
+      "Benchmark: render the default scene, run {fsp, fhp} x {window, batch} with the gt-corners "
+      "front end\n"
+      "(sigma 1 px), evaluate each (ATE SE3/posyaw, Sim3 scale, RPE, corner/width/height errors, "
+      "back-end time,\n"
       "real-time factor), write DIR/bench.json and DIR/bench.md, and check the accuracy gate\n"
       "(assets/bench/thresholds.yaml): exit 3 when an enforced bound is crossed.");
   sub->add_option("--out", args->out, "output folder (created)")->required();
   sub->add_flag("--quick", args->quick, "a shorter sequence (--quick-duration seconds)");
-  sub->add_option("--quick-duration", args->quick_duration_s, "duration of --quick [s]")->check(CLI::PositiveNumber);
+  sub->add_option("--quick-duration", args->quick_duration_s, "duration of --quick [s]")
+      ->check(CLI::PositiveNumber);
   sub->add_option("--scene", args->scene, "scene file to render")->default_str(args->scene);
-  sub->add_option("--sequence", args->sequence, "use this rendered sequence instead of rendering one");
-  sub->add_option("--thresholds", args->thresholds, "accuracy gate file")->default_str(args->thresholds);
+  sub->add_option("--sequence", args->sequence,
+                  "use this rendered sequence instead of rendering one");
+  sub->add_option("--thresholds", args->thresholds, "accuracy gate file")
+      ->default_str(args->thresholds);
   sub->add_option("--config", args->config, "base run configuration (YAML, as for fsp run)");
-  sub->add_option("--pixel-sigma", args->pixel_sigma, "corner noise of the gt-corners front end [px]")
+  sub->add_option("--pixel-sigma", args->pixel_sigma,
+                  "corner noise of the gt-corners front end [px]")
       ->check(CLI::NonNegativeNumber);
   sub->callback([args] { RunBench(*args); });
 }

@@ -1,4 +1,5 @@
-// The `fsp run` pipeline as a function (shared by `fsp run` and `fsp bench`): input source -> front end
+// The `fsp run` pipeline as a function (shared by `fsp run` and `fsp bench`): input source -> front
+// end
 // -> estimator -> the run folder (trajectory.tum, map.json, observations.csv, run.json).
 #pragma once
 
@@ -11,18 +12,19 @@
 namespace fsp::apps {
 
 struct RunRequest {
-  SourceOptions source;    // INPUT, --calib, --imu
-  std::string out_dir;     // created when missing
+  SourceOptions source;           // INPUT, --calib, --imu
+  std::string out_dir;            // created when missing
   std::string frontend = "rect";  // rect | apriltag (from images) | gt-corners
-  // Pace the input at its recorded rate and drop the frames the pipeline cannot keep up with (a frame is
-  // dropped when the next one is already due by the time the pipeline is ready for it).
+  // Pace the input at its recorded rate and drop the frames the pipeline cannot keep up with (a
+  // frame is dropped when the next one is already due by the time the pipeline is ready for it).
   bool realtime = false;
-  bool progress = true;    // progress bar on a terminal
+  bool progress = true;  // progress bar on a terminal
 };
 
-// Runs the whole pipeline with CONFIG (mode, landmarks, seed already applied) and writes the outputs.
-// Throws InputError on bad input. A refused static initialisation is not thrown: the report's
-// summary.init_failure says why (the outputs are still written; the caller decides the exit code).
+// Runs the whole pipeline with CONFIG (mode, landmarks, seed already applied) and writes the
+// outputs. Throws InputError on bad input. A refused static initialisation is not thrown: the
+// report's summary.init_failure says why (the outputs are still written; the caller decides the
+// exit code).
 RunReport RunPipeline(const RunRequest& request, const RunConfig& config);
 
 const char* ModeName(backend::EstimatorMode mode);          // "window", "batch"
