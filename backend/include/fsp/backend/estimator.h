@@ -1,6 +1,7 @@
 // The visual-inertial estimator: keyframe states (pose, velocity, IMU biases) and rectangle
 // landmarks (FSP, or the FHP baseline) in one Ceres problem, fed with IMU samples and per-frame
-// object observations (undistorted corners). DESIGN.md §4.
+// object observations (undistorted corners). The README's "Architecture" and "Conventions" give the
+// frames.
 //
 // Modes:
 //  - kWindow (online): keyframes every keyframe_interval_s (default: every frame), the newest frame
@@ -114,7 +115,7 @@ struct EstimatorOptions {
   bool Check(std::string* why) const;
 };
 
-// An object as reported in map.json (CONTRACT.md).
+// An object as reported in map.json (the README's "Files").
 struct MapObject {
   int id = -1;
   ObjectClass object_class = ObjectClass::kUnknown;
