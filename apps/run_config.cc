@@ -105,6 +105,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.gt_corners.seed", &c.gt_corners.seed, kAny},
       {"frontend.detect_every", &f.detect_every, kNonNegative},
       {"frontend.confirm_detections", &f.confirm_detections, kNonNegative},
+      {"frontend.confirm_within_frames", &f.confirm_within_frames, kAtLeastOne},
       {"frontend.match_gate_frac", &f.match_gate_frac, kNonNegative},
       {"frontend.reid_min_similarity", &f.reid_min_similarity, kNonNegative},
       {"frontend.reid_min_margin", &f.reid_min_margin, kNonNegative},

@@ -35,6 +35,7 @@ bool FrontEndOptions::Check(std::string* why) const {
   };
   if (detect_every < 1) return fail("detect_every must be >= 1");
   if (confirm_detections < 1) return fail("confirm_detections must be >= 1");
+  if (confirm_within_frames < 1) return fail("confirm_within_frames must be >= 1");
   if (!(match_gate_frac > 0.0)) return fail("match_gate_frac must be > 0");
   if (!(reid_gate_frac > 0.0)) return fail("reid_gate_frac must be > 0");
   if (!(reid_reject_frac >= reid_gate_frac))
@@ -98,8 +99,9 @@ Corners RotateCorners(const Corners& c, const Mat3& K, const Mat3& R_Cprev_Ccur)
 struct ObjectInfo {
   bool confirmed = false;
   bool active = false;
-  bool is_tag = false;  // a decoded AprilTag (its id is the tag id)
-  int detections = 0;   // detection runs that matched it
+  bool is_tag = false;       // a decoded AprilTag (its id is the tag id)
+  int detections = 0;        // detection runs that matched it
+  int candidate_frames = 0;  // frames tracked as a candidate
   std::map<ObjectClass, int> class_votes;
   Corners last;  // last tracked corners (undistorted px)
 
@@ -297,7 +299,10 @@ struct FrontEnd::Impl {
     bool lost = false;
     for (const TrackedObject& t : tracker.Track(w->gray, predicted)) {
       ObjectInfo& info = objects[t.id];
-      if (t.tracked) {
+      // A candidate not confirmed within confirm_within_frames is a stray detection: forgotten (it
+      // would keep the detector running on every frame).
+      const bool expired = !info.confirmed && ++info.candidate_frames > w->o.confirm_within_frames;
+      if (t.tracked && !expired) {
         info.last = t.corners_undistorted;
         w->tracked[t.id] = t.corners_undistorted;
         if (!t.in_view) w->out_of_view.insert(t.id);  // tracked on, not observed

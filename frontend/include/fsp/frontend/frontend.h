@@ -52,6 +52,9 @@ struct FrontEndOptions {
   // A new object is confirmed (and reported) once detected in this many detection runs while being
   // tracked in between. Higher: fewer false objects from stray detections, a later start.
   int confirm_detections = 2;
+  // ...within this many frames of its start; a candidate still unconfirmed then is forgotten (a
+  // stray detection, and while a candidate waits the detector runs on every frame) [frames].
+  int confirm_within_frames = 10;
   // A detection matches a live track when their mean corner distance (best cyclic shift) is below
   // this fraction of the track's shortest side (at least 3 px). Larger tolerates worse tracks but
   // can steal a neighbour's detection.
