@@ -1,6 +1,6 @@
 // fsp detect IMAGE... [--frontend rect|apriltag] [--calib FILE] [--out DIR]: corners of the
 // rectangles or AprilTags in single images, a detections.csv and a drawn PNG per image
-// (CONTRACT.md).
+// (the README's "Commands").
 #include <cstdio>
 #include <filesystem>
 #include <fstream>

@@ -1,5 +1,6 @@
-// fsp info INPUT [--calib FILE] [--imu FILE] [--frame-times FILE] [--json] [--quick]: what a recording
-// holds (frames, IMU samples, time span, calibration), after decoding every image unless --quick.
+// fsp info INPUT [--calib FILE] [--imu FILE] [--frame-times FILE] [--json] [--quick]: what a
+// recording holds (frames, IMU samples, time span, calibration), after decoding every image unless
+// --quick.
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -22,7 +23,8 @@ struct InfoArgs {
   bool quick = false;
 };
 
-nlohmann::ordered_json ToJson(const Source& src, const SourceSummary& s, const InfoArgs& args, int decoded) {
+nlohmann::ordered_json ToJson(const Source& src, const SourceSummary& s, const InfoArgs& args,
+                              int decoded) {
   const Calibration& c = src.calibration();
   nlohmann::ordered_json j;
   j["frames"] = s.frames;
@@ -69,8 +71,9 @@ void PrintHuman(const Source& src, const SourceSummary& s, const InfoArgs& args,
   const PinholeRadtan& k = c.camera;
   std::printf("input        %s (%s)\n", args.source.input.c_str(), ToString(s.kind));
   std::printf("calibration  %s\n", c.source.c_str());
-  std::printf("frames       %d, t %lld .. %lld ns (%.3f s, %.2f Hz)\n", s.frames, static_cast<long long>(s.t_first_ns),
-              static_cast<long long>(s.t_last_ns), NsToSeconds(s.t_last_ns - s.t_first_ns), s.frame_rate_hz);
+  std::printf("frames       %d, t %lld .. %lld ns (%.3f s, %.2f Hz)\n", s.frames,
+              static_cast<long long>(s.t_first_ns), static_cast<long long>(s.t_last_ns),
+              NsToSeconds(s.t_last_ns - s.t_first_ns), s.frame_rate_hz);
   if (c.time_offset_ns != 0) {
     std::printf("             (camera clock shifted by time_offset_ns = %lld)\n",
                 static_cast<long long>(c.time_offset_ns));
@@ -78,20 +81,27 @@ void PrintHuman(const Source& src, const SourceSummary& s, const InfoArgs& args,
   std::printf("imu          %d samples, t %lld .. %lld ns (%.3f s, %.1f Hz)\n", s.imu_samples,
               static_cast<long long>(s.imu_t_first_ns), static_cast<long long>(s.imu_t_last_ns),
               NsToSeconds(s.imu_t_last_ns - s.imu_t_first_ns), s.imu_rate_hz);
-  std::printf("             largest gap %.1f ms (ending at %lld ns); %d gaps longer than 5 periods\n",
-              1e3 * NsToSeconds(s.largest_imu_gap_ns), static_cast<long long>(s.largest_imu_gap_at_ns), s.imu_gaps);
-  std::printf("camera       %dx%d, fx %.6g fy %.6g cx %.6g cy %.6g, distortion [%.10g, %.10g, %.10g, %.10g], %.6g Hz\n",
-              k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.distortion[0], k.distortion[1], k.distortion[2],
-              k.distortion[3], c.camera_rate_hz);
+  std::printf(
+      "             largest gap %.1f ms (ending at %lld ns); %d gaps longer than 5 periods\n",
+      1e3 * NsToSeconds(s.largest_imu_gap_ns), static_cast<long long>(s.largest_imu_gap_at_ns),
+      s.imu_gaps);
+  std::printf(
+      "camera       %dx%d, fx %.6g fy %.6g cx %.6g cy %.6g, distortion [%.10g, %.10g, %.10g, "
+      "%.10g], %.6g Hz\n",
+      k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.distortion[0], k.distortion[1], k.distortion[2],
+      k.distortion[3], c.camera_rate_hz);
   const Mat4 M = c.T_B_C.Matrix();
   for (int r = 0; r < 4; ++r) {
-    std::printf("%s [%12.9f %12.9f %12.9f %12.9f]\n", r == 0 ? "T_B_C       " : "            ", M(r, 0), M(r, 1),
-                M(r, 2), M(r, 3));
+    std::printf("%s [%12.9f %12.9f %12.9f %12.9f]\n", r == 0 ? "T_B_C       " : "            ",
+                M(r, 0), M(r, 1), M(r, 2), M(r, 3));
   }
-  std::printf("imu noise    gyro %.4g rad/s/sqrt(Hz), acc %.4g m/s^2/sqrt(Hz), gyro walk %.4g, acc walk %.4g, "
-              "%.6g Hz (%s)\n",
-              c.imu.gyroscope_noise_density, c.imu.accelerometer_noise_density, c.imu.gyroscope_random_walk,
-              c.imu.accelerometer_random_walk, c.imu.rate_hz, c.imu_source.empty() ? "defaults" : c.imu_source.c_str());
+  std::printf(
+      "imu noise    gyro %.4g rad/s/sqrt(Hz), acc %.4g m/s^2/sqrt(Hz), gyro walk %.4g, acc walk "
+      "%.4g, "
+      "%.6g Hz (%s)\n",
+      c.imu.gyroscope_noise_density, c.imu.accelerometer_noise_density, c.imu.gyroscope_random_walk,
+      c.imu.accelerometer_random_walk, c.imu.rate_hz,
+      c.imu_source.empty() ? "defaults" : c.imu_source.c_str());
   if (args.quick) {
     std::printf("images       not decoded (--quick; the first one was checked)\n");
   } else {
@@ -100,7 +110,8 @@ void PrintHuman(const Source& src, const SourceSummary& s, const InfoArgs& args,
   if (s.frames_outside_imu > 0) {
     std::printf("warning      %d frames lie outside the IMU time span\n", s.frames_outside_imu);
   }
-  if (s.imu_gaps > 0) std::printf("warning      the IMU stream has %d gaps longer than 5 periods\n", s.imu_gaps);
+  if (s.imu_gaps > 0)
+    std::printf("warning      the IMU stream has %d gaps longer than 5 periods\n", s.imu_gaps);
 }
 
 void RunInfo(const InfoArgs& args) {
@@ -127,18 +138,28 @@ void RunInfo(const InfoArgs& args) {
 
 void AddInfoCommand(CLI::App& root) {
   auto args = std::make_shared<InfoArgs>();
-  auto* sub = root.add_subcommand("info", "Describe a recording: frames, IMU samples, time span, calibration");
+  auto* sub = root.add_subcommand(
+      "info", "Describe a recording: frames, IMU samples, time span, calibration");
   sub->footer(
-      "INPUT is a EuRoC folder (DIR/mav0 or mav0 itself), a video file (with --imu and --calib), or a folder\n"
-      "of images named <t_ns>.png or listed in a data.csv (with --imu and --calib). Every image is decoded\n"
-      "to verify it unless --quick. Bad input: one line 'fsp: error: FILE:LINE: what' and exit code 2.");
-  sub->add_option("INPUT", args->source.input, "EuRoC dataset folder, video file or image folder")->required();
-  sub->add_option("--calib", args->source.calib,
-                  "calibration: EuRoC cam0/sensor.yaml, Kalibr camchain or fsp calib.yaml (overrides EuRoC's)");
-  sub->add_option("--imu", args->source.imu, "IMU csv t_ns,wx,wy,wz,ax,ay,az (overrides EuRoC's imu0/data.csv)");
-  sub->add_option("--frame-times", args->source.frame_times,
-                  "video only: one t_ns per frame (plain or csv first column), instead of the video clock");
-  sub->add_flag("--json", args->json, "print one JSON object (CONTRACT.md) instead of a report");
+      "INPUT is a EuRoC folder (DIR/mav0 or mav0 itself), a video file (with --imu and --calib), "
+      "or a folder\n"
+      "of images named <t_ns>.png or listed in a data.csv (with --imu and --calib). Every image is "
+      "decoded\n"
+      "to verify it unless --quick. Bad input: one line 'fsp: error: FILE:LINE: what' and exit "
+      "code 2.");
+  sub->add_option("INPUT", args->source.input, "EuRoC dataset folder, video file or image folder")
+      ->required();
+  sub->add_option(
+      "--calib", args->source.calib,
+      "calibration: EuRoC cam0/sensor.yaml, Kalibr camchain or fsp calib.yaml (overrides EuRoC's)");
+  sub->add_option("--imu", args->source.imu,
+                  "IMU csv t_ns,wx,wy,wz,ax,ay,az (overrides EuRoC's imu0/data.csv)");
+  sub->add_option(
+      "--frame-times", args->source.frame_times,
+      "video only: one t_ns per frame (plain or csv first column), instead of the video clock");
+  sub->add_flag("--json", args->json,
+                "print one JSON object (frames, imu_samples, t_first_ns, t_last_ns, camera, T_B_C) "
+                "instead of a report");
   sub->add_flag("--quick", args->quick, "do not decode every image (only the first)");
   sub->callback([args] { RunInfo(*args); });
 }

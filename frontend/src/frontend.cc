@@ -59,20 +59,6 @@ bool FrontEndOptions::Check(std::string* why) const {
 
 namespace {
 
-// Mean distance between corresponding corners after the best cyclic shift of B's order [px].
-double MeanCornerDistance(const Corners& a, const Corners& b, int* best_shift = nullptr) {
-  double best = std::numeric_limits<double>::infinity();
-  for (int r = 0; r < 4; ++r) {
-    double sum = 0.0;
-    for (int j = 0; j < 4; ++j) sum += (a[j] - b[(j + r) % 4]).norm();
-    if (sum < best) {
-      best = sum;
-      if (best_shift) *best_shift = r;
-    }
-  }
-  return 0.25 * best;
-}
-
 Corners Shifted(const Corners& c, int r) {
   Corners out;
   for (int j = 0; j < 4; ++j) out[j] = c[(j + r) % 4];
@@ -176,7 +162,7 @@ struct FrontEnd::Impl {
       for (const Detection& t : r.detections) {
         Corners px = t.corners_px;
         for (Vec2& c : px) c += Vec2(roi.x, roi.y);
-        if (MeanCornerDistance(d.corners_px, px) > gate) continue;
+        if (MeanCornerDistanceBestShift(d.corners_px, px) > gate) continue;
         d.tag_id = t.tag_id;
         d.corners_px = px;
         for (int j = 0; j < 4; ++j) d.corners_undistorted[j] = camera.UndistortPixel(px[j]);
@@ -200,7 +186,7 @@ struct FrontEnd::Impl {
         const double gate = std::max(3.0, o.match_gate_frac * ShortestSide(t.corners_px));
         bool replaced = false;
         for (Detection& d : dets)
-          if (MeanCornerDistance(d.corners_px, t.corners_px) <= gate) {
+          if (MeanCornerDistanceBestShift(d.corners_px, t.corners_px) <= gate) {
             d = t;
             replaced = true;
           }
@@ -244,7 +230,7 @@ struct FrontEnd::Impl {
       bool elsewhere = false;
       for (const auto& [pid, pc] : prediction.objects) {
         if (pid != id) continue;
-        const double dist = MeanCornerDistance(pc, d.corners_undistorted);
+        const double dist = MeanCornerDistanceBestShift(pc, d.corners_undistorted);
         if (dist <= o.reid_gate_frac * ShortestSide(pc)) need = o.reid_min_similarity_predicted;
         elsewhere = dist > o.reid_reject_frac * ShortestSide(pc);
       }
@@ -380,7 +366,7 @@ struct FrontEnd::Impl {
       for (auto it = w->tracked.begin(); it != w->tracked.end();) {
         const int id = it->first;
         if (objects[id].is_tag || !InsideConvex(d.corners_undistorted, Centroid(it->second)) ||
-            MeanCornerDistance(it->second, d.corners_undistorted) >
+            MeanCornerDistanceBestShift(it->second, d.corners_undistorted) >
                 0.5 * ShortestSide(d.corners_undistorted)) {
           ++it;
           continue;
@@ -404,7 +390,7 @@ struct FrontEnd::Impl {
     for (size_t i = 0; i < dets.size(); ++i) {
       if ((*used)[i]) continue;
       for (const auto& [id, c] : w->tracked) {
-        const double dist = MeanCornerDistance(c, dets[i].corners_undistorted);
+        const double dist = MeanCornerDistanceBestShift(c, dets[i].corners_undistorted);
         if (dist <= std::max(3.0, w->o.match_gate_frac * ShortestSide(c)))
           pairs.push_back({dist, i, id});
       }
@@ -422,7 +408,7 @@ struct FrontEnd::Impl {
       Vote(info, d, w);
       Corners& track = w->tracked[p.id];
       int shift = 0;
-      MeanCornerDistance(track, d.corners_undistorted, &shift);
+      MeanCornerDistanceBestShift(track, d.corners_undistorted, &shift);
       const Corners c = Shifted(d.corners_undistorted, shift);  // in the track's order
       double worst = 0.0;
       for (int j = 0; j < 4; ++j) worst = std::max(worst, (c[j] - track[j]).norm());

@@ -17,6 +17,7 @@
 
 #include "fsp/common/error.h"
 #include "fsp/frontend/edge_refine.h"
+#include "fsp/frontend/rect_geometry.h"
 
 namespace fsp::frontend {
 namespace {
@@ -42,35 +43,6 @@ bool HomographyFrom4(const Corners& from, const Corners& to, Mat3* H) {
   const Eigen::Matrix<double, 8, 1> h = lu.solve(b);
   *H << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1.0;
   return std::isfinite(H->sum());
-}
-
-bool Convex(const Corners& c) {
-  int sign = 0;
-  for (int i = 0; i < 4; ++i) {
-    const Vec2 a = c[(i + 1) % 4] - c[i], b = c[(i + 2) % 4] - c[(i + 1) % 4];
-    const double z = a.x() * b.y() - a.y() * b.x();
-    if (!(std::abs(z) > 1e-9)) return false;
-    const int s = z > 0 ? 1 : -1;
-    if (sign != 0 && s != sign) return false;
-    sign = s;
-  }
-  return true;
-}
-
-double Area(const Corners& c) {
-  double a = 0.0;
-  for (int i = 0; i < 4; ++i) {
-    const Vec2& p = c[i];
-    const Vec2& q = c[(i + 1) % 4];
-    a += p.x() * q.y() - q.x() * p.y();
-  }
-  return 0.5 * std::abs(a);
-}
-
-double ShortestSide(const Corners& c) {
-  double s = 1e300;
-  for (int i = 0; i < 4; ++i) s = std::min(s, (c[(i + 1) % 4] - c[i]).norm());
-  return s;
 }
 
 double MaxCornerDistance(const Corners& a, const Corners& b) {
@@ -374,11 +346,9 @@ struct ObjectTracker::Impl {
     return out;
   }
 
-  // Adds flow points: the quad's four corners (replacing older corner points) and Shi-Tomasi
-  // corners inside it away from the points already held, up to max_points.
-  void SeedPoints(Object* ob, const cv::Mat& gray) const {
-    const Corners und = CornersOf(*ob, ob->H);
-    // Drop the old corner points (object-plane corners) and points that left the quad.
+  // The quad's four corners as flow points at CORNERS_PX (distorted px), replacing the old corner
+  // points; a corner too close to the border for the LK window is left out.
+  void ResetCornerPoints(Object* ob, const Corners& corners_px, const cv::Mat& gray) const {
     std::vector<Vec2> keep_obj;
     std::vector<cv::Point2f> keep_img;
     for (size_t k = 0; k < ob->pt_obj.size(); ++k) {
@@ -388,17 +358,26 @@ struct ObjectTracker::Impl {
       keep_obj.push_back(ob->pt_obj[k]);
       keep_img.push_back(ob->pt_img[k]);
     }
-    ob->pt_obj.swap(keep_obj);
-    ob->pt_img.swap(keep_img);
     const double border = 0.5 * o.lk_window + 1.0;
     for (int i = 0; i < 4; ++i) {
-      const Vec2 d = ToDistorted(und[i]);
+      const Vec2& d = corners_px[i];
       if (d.x() < border || d.y() < border || d.x() > gray.cols - 1 - border ||
           d.y() > gray.rows - 1 - border)
         continue;
-      ob->pt_obj.push_back(ob->obj_corners[i]);
-      ob->pt_img.emplace_back(static_cast<float>(d.x()), static_cast<float>(d.y()));
+      keep_obj.push_back(ob->obj_corners[i]);
+      keep_img.emplace_back(static_cast<float>(d.x()), static_cast<float>(d.y()));
     }
+    ob->pt_obj.swap(keep_obj);
+    ob->pt_img.swap(keep_img);
+  }
+
+  // Adds flow points: the quad's four corners (replacing older corner points) and Shi-Tomasi
+  // corners inside it away from the points already held, up to max_points.
+  void SeedPoints(Object* ob, const cv::Mat& gray) const {
+    const Corners und = CornersOf(*ob, ob->H);
+    Corners px;
+    for (int i = 0; i < 4; ++i) px[i] = ToDistorted(und[i]);
+    ResetCornerPoints(ob, px, gray);
     const int want = o.max_points - static_cast<int>(ob->pt_obj.size());
     if (want <= 0) return;
     const cv::Rect r = Box(und, 0.0);
@@ -451,11 +430,11 @@ struct ObjectTracker::Impl {
     }
     if (!smooth_near(start, o.refine.search_px)) return false;
     *out = RefineCornersOnEdges(smooth, cam, start, o.min_edge_gradient, o.refine, ob.side_sign);
-    return out->ok && Convex(out->corners_undistorted);
+    return out->ok && IsConvex(out->corners_undistorted);
   }
 
   bool Init(Object* ob, const cv::Mat& gray, const Corners& corners, bool build_model) {
-    if (!Convex(corners) || ShortestSide(corners) < o.min_side_px) return false;
+    if (!IsConvex(corners) || ShortestSide(corners) < o.min_side_px) return false;
     for (const Vec2& c : corners) {
       const Vec2 d = ToDistorted(c);
       if (!(d.x() >= 0.0 && d.y() >= 0.0 && d.x() <= gray.cols - 1 && d.y() <= gray.rows - 1))
@@ -538,7 +517,7 @@ struct ObjectTracker::Impl {
       t.recovered = true;
       // Search region: the predicted and the last quad, grown by the object's size.
       const Corners pc = CornersOf(*ob, H_pred);
-      const double size = std::sqrt(Area(pc));
+      const double size = std::sqrt(std::abs(SignedArea(pc)));
       const cv::Rect r = Box(pc, size + 30.0) | Box(CornersOf(*ob, ob->H), size + 30.0);
       if (r.width > 40 && r.height > 40) {
         std::vector<cv::KeyPoint> kps;
@@ -607,8 +586,9 @@ struct ObjectTracker::Impl {
         inliers = static_cast<int>(std::count(mask.begin(), mask.end(), 1));
         const Corners kc = CornersOf(*ob, Hk);
         const Corners pc = CornersOf(*ob, H_pred);
-        const double area_ratio = Area(kc) / std::max(Area(pc), 1e-9);
-        const bool sane = Convex(kc) && area_ratio > 0.5 && area_ratio < 2.0;
+        const double area_ratio =
+            std::abs(SignedArea(kc)) / std::max(std::abs(SignedArea(pc)), 1e-9);
+        const bool sane = IsConvex(kc) && area_ratio > 0.5 && area_ratio < 2.0;
         if (sane && inliers >= o.min_inliers) {
           strong = true;
           H = Hk;
@@ -706,27 +686,7 @@ struct ObjectTracker::Impl {
       ob->seeded = static_cast<int>(ob->pt_obj.size());
       ob->frames_since_refresh = 0;
     } else {
-      // Corners always follow the final quad.
-      std::vector<Vec2> keep_obj;
-      std::vector<cv::Point2f> keep_img;
-      for (size_t k = 0; k < ob->pt_obj.size(); ++k) {
-        bool corner = false;
-        for (const Vec2& c : ob->obj_corners) corner |= (ob->pt_obj[k] - c).norm() < 1e-9;
-        if (corner) continue;
-        keep_obj.push_back(ob->pt_obj[k]);
-        keep_img.push_back(ob->pt_img[k]);
-      }
-      const double border = 0.5 * o.lk_window + 1.0;
-      for (int i = 0; i < 4; ++i) {
-        const Vec2& d = t.corners_px[i];
-        if (d.x() < border || d.y() < border || d.x() > gray.cols - 1 - border ||
-            d.y() > gray.rows - 1 - border)
-          continue;
-        keep_obj.push_back(ob->obj_corners[i]);
-        keep_img.emplace_back(static_cast<float>(d.x()), static_cast<float>(d.y()));
-      }
-      ob->pt_obj.swap(keep_obj);
-      ob->pt_img.swap(keep_img);
+      ResetCornerPoints(ob, t.corners_px, gray);  // corners always follow the final quad
     }
     return t;
   }
@@ -751,7 +711,7 @@ struct ObjectTracker::Impl {
         const auto it = predicted.find(ob->id);
         Mat3 Hc;
         if (it != predicted.end() && HomographyFrom4(ob->obj_corners, it->second, &Hc)) Hp = Hc;
-        if (!Convex(CornersOf(*ob, Hp))) Hp = ob->H;
+        if (!IsConvex(CornersOf(*ob, Hp))) Hp = ob->H;
         H_pred[a] = Hp;
         offset[a] = p0.size();
         // Initial flow: the points moved by the predicted motion (the prediction's image of
@@ -853,7 +813,7 @@ std::optional<double> ObjectTracker::Similarity(int id, const cv::Mat& gray,
   if (it == impl_->objects.end()) return std::nullopt;
   const Impl::Object& ob = it->second;
   Mat3 H;
-  if (!Convex(corners) || !HomographyFrom4(ob.obj_corners, corners, &H)) return -1.0;
+  if (!IsConvex(corners) || !HomographyFrom4(ob.obj_corners, corners, &H)) return -1.0;
   std::vector<cv::Mat> levels;
   cv::buildPyramid(gray, levels, 4);
   double visible = 0.0;

@@ -140,6 +140,19 @@ double CornerDistanceBestShift(const Corners& a, const Corners& b, int* best_shi
   return best;
 }
 
+double MeanCornerDistanceBestShift(const Corners& a, const Corners& b, int* best_shift) {
+  double best = std::numeric_limits<double>::infinity();
+  for (int s = 0; s < 4; ++s) {
+    double sum = 0.0;
+    for (int i = 0; i < 4; ++i) sum += (a[i] - b[(i + s) % 4]).norm();
+    if (sum < best) {
+      best = sum;
+      if (best_shift) *best_shift = s;
+    }
+  }
+  return 0.25 * best;
+}
+
 double ShortestSide(const Corners& c) {
   double s = std::numeric_limits<double>::infinity();
   for (int i = 0; i < 4; ++i) s = std::min(s, (c[(i + 1) % 4] - c[i]).norm());

@@ -38,8 +38,8 @@ double SignedArea(const Corners& c);
 bool IsConvex(const Corners& c);
 // True when p is inside the convex quad (any orientation).
 bool InsideConvex(const Corners& c, const Vec2& p);
-// True when every corner of `inner` is inside `outer` grown by `margin_px` (each corner moved that far
-// away from the centroid): "inside" that tolerates shared sides and corners.
+// True when every corner of `inner` is inside `outer` grown by `margin_px` (each corner moved that
+// far away from the centroid): "inside" that tolerates shared sides and corners.
 bool ContainsWithMargin(const Corners& outer, const Corners& inner, double margin_px);
 
 // Puts four corners of a convex quad (any start, either orientation) into s1..s4 order.
@@ -61,6 +61,9 @@ std::optional<Vec2> GravityImageDirection(const Vec2& m, const Mat3& K, const Ve
 
 // Largest distance between corresponding corners after the best cyclic shift (orientation kept).
 double CornerDistanceBestShift(const Corners& a, const Corners& b, int* best_shift = nullptr);
+// Mean distance between corresponding corners after the best cyclic shift: 1/4 sum ||a_j -
+// b_{(j+s) mod 4}||, minimised over s (orientation kept).
+double MeanCornerDistanceBestShift(const Corners& a, const Corners& b, int* best_shift = nullptr);
 
 // Shortest side length in pixels.
 double ShortestSide(const Corners& c);
