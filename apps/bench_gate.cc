@@ -22,7 +22,8 @@ std::vector<GateCheck> ReadGate(const std::string& path) {
     throw InputError(path, 0, "expected a list under \"checks\"");
   for (const auto& kv : root) {
     if (kv.first.as<std::string>() != "checks")
-      throw InputError(path, kv.first.Mark().line + 1, "unknown key '" + kv.first.as<std::string>() + "'");
+      throw InputError(path, kv.first.Mark().line + 1,
+                       "unknown key '" + kv.first.as<std::string>() + "'");
   }
   std::vector<GateCheck> checks;
   for (const YAML::Node& n : root["checks"]) {
@@ -54,26 +55,31 @@ std::vector<GateCheck> ReadGate(const std::string& path) {
         c.target = number(kv.second, key);
       } else if (key == "enforced") {
         const std::string s = kv.second.as<std::string>();
-        if (s != "true" && s != "false") throw InputError(path, c.line, "enforced: expected true or false");
+        if (s != "true" && s != "false")
+          throw InputError(path, c.line, "enforced: expected true or false");
         c.enforced = s == "true";
       } else {
-        throw InputError(path, c.line,
-                         "unknown key '" + key + "' (known: config, metric, max, min, target, enforced)");
+        throw InputError(
+            path, c.line,
+            "unknown key '" + key + "' (known: config, metric, max, min, target, enforced)");
       }
     }
-    if (c.config.empty() || c.metric.empty()) throw InputError(path, c.line, "a check needs config and metric");
+    if (c.config.empty() || c.metric.empty())
+      throw InputError(path, c.line, "a check needs config and metric");
     if (!has_bound) throw InputError(path, c.line, "a check needs max or min");
     checks.push_back(c);
   }
   return checks;
 }
 
-std::vector<GateResult> EvaluateGate(const std::vector<GateCheck>& checks, const nlohmann::ordered_json& rows) {
+std::vector<GateResult> EvaluateGate(const std::vector<GateCheck>& checks,
+                                     const nlohmann::ordered_json& rows) {
   std::vector<GateResult> results;
   for (const GateCheck& c : checks) {
     GateResult r;
     r.check = c;
-    if (rows.contains(c.config) && rows[c.config].contains(c.metric) && rows[c.config][c.metric].is_number()) {
+    if (rows.contains(c.config) && rows[c.config].contains(c.metric) &&
+        rows[c.config][c.metric].is_number()) {
       const double v = rows[c.config][c.metric].get<double>();
       r.value = v;
       r.pass = c.upper ? v <= c.bound : v >= c.bound;

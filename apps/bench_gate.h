@@ -1,7 +1,7 @@
 // The accuracy gate of `fsp bench`: bounds on benchmark metrics kept in the repository
-// (assets/bench/thresholds.yaml). Each check names a configuration ("fsp-window", ...), a metric (a key of
-// that configuration's row in bench.json), an enforced bound (max or min), the project's target, and
-// whether crossing the bound fails the benchmark. Targets are reported, never enforced.
+// (assets/bench/thresholds.yaml). Each check names a configuration ("fsp-window", ...), a metric (a
+// key of that configuration's row in bench.json), an enforced bound (max or min), the project's
+// target, and whether crossing the bound fails the benchmark. Targets are reported, never enforced.
 //
 //   checks:
 //     - {config: fsp-window, metric: ate_se3_m, max: 0.10, target: 0.03, enforced: true}
@@ -19,14 +19,15 @@ namespace fsp::apps {
 struct GateCheck {
   std::string config;
   std::string metric;
-  bool upper = true;      // true: value <= bound ("max"); false: value >= bound ("min")
+  bool upper = true;  // true: value <= bound ("max"); false: value >= bound ("min")
   double bound = 0.0;
   std::optional<double> target;
   bool enforced = true;
-  int line = 0;           // in the thresholds file
+  int line = 0;  // in the thresholds file
 };
 
-// Throws InputError("FILE:LINE: what") on a malformed file, an unknown key, or a check without a bound.
+// Throws InputError("FILE:LINE: what") on a malformed file, an unknown key, or a check without a
+// bound.
 std::vector<GateCheck> ReadGate(const std::string& path);
 
 struct GateResult {
@@ -37,7 +38,8 @@ struct GateResult {
 };
 
 // ROWS: {"fsp-window": {"ate_se3_m": ..., ...}, ...}.
-std::vector<GateResult> EvaluateGate(const std::vector<GateCheck>& checks, const nlohmann::ordered_json& rows);
+std::vector<GateResult> EvaluateGate(const std::vector<GateCheck>& checks,
+                                     const nlohmann::ordered_json& rows);
 // True when every enforced check passes.
 bool GatePasses(const std::vector<GateResult>& results);
 

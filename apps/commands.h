@@ -1,6 +1,6 @@
 // Subcommands of the `fsp` binary. Each Add*Command registers itself on the root app; its callback
-// throws fsp::InputError on bad input (main prints one line and exits 2) and CLI::RuntimeError(code)
-// for any other non-zero exit.
+// throws fsp::InputError on bad input (main prints one line and exits 2) and
+// CLI::RuntimeError(code) for any other non-zero exit.
 #pragma once
 
 #include <CLI/CLI.hpp>

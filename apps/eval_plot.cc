@@ -26,8 +26,10 @@ struct View {
   }
 };
 
-void DrawPolyline(cv::Mat* img, const View& v, const std::vector<Vec3>& pts, const cv::Scalar& color, int thick) {
-  for (size_t i = 1; i < pts.size(); ++i) cv::line(*img, v.Px(pts[i - 1]), v.Px(pts[i]), color, thick, cv::LINE_AA);
+void DrawPolyline(cv::Mat* img, const View& v, const std::vector<Vec3>& pts,
+                  const cv::Scalar& color, int thick) {
+  for (size_t i = 1; i < pts.size(); ++i)
+    cv::line(*img, v.Px(pts[i - 1]), v.Px(pts[i]), color, thick, cv::LINE_AA);
 }
 
 void DrawObjects(cv::Mat* img, const View& v, const std::vector<eval::ObjectRecord>& objects,
@@ -40,8 +42,8 @@ void DrawObjects(cv::Mat* img, const View& v, const std::vector<eval::ObjectReco
     for (const Vec3& c : o.corners_W) poly.push_back(v.Px(c));
     cv::polylines(*img, poly, true, color, thick, cv::LINE_AA);
     if (labels) {
-      cv::putText(*img, std::to_string(o.id), v.Px(o.corners_W[3]) + cv::Point(3, -3), cv::FONT_HERSHEY_SIMPLEX,
-                  0.4, color, 1, cv::LINE_AA);
+      cv::putText(*img, std::to_string(o.id), v.Px(o.corners_W[3]) + cv::Point(3, -3),
+                  cv::FONT_HERSHEY_SIMPLEX, 0.4, color, 1, cv::LINE_AA);
     }
   }
 }
@@ -88,14 +90,16 @@ void WriteEvalTopView(const eval::Metrics& metrics, const std::string& png_path)
   DrawPolyline(&img, v, p_gt, cv::Scalar(150, 150, 150), 2);
   DrawPolyline(&img, v, p_est, cv::Scalar(0, 0, 220), 1);
   char text[256];
-  std::snprintf(text, sizeof(text), "ground truth (grey/black) vs estimate (red), %s alignment: ATE rmse %.3f m",
+  std::snprintf(text, sizeof(text),
+                "ground truth (grey/black) vs estimate (red), %s alignment: ATE rmse %.3f m",
                 eval::ToString(align.mode), metrics.trajectory->ate.rmse);
-  cv::putText(img, text, cv::Point(10, 25), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  cv::putText(img, text, cv::Point(10, 25), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1,
+              cv::LINE_AA);
   // 1 m scale bar.
   const cv::Point bar0(v.margin, v.height - 20);
   cv::line(img, bar0, bar0 + cv::Point(static_cast<int>(v.scale), 0), cv::Scalar(0, 0, 0), 2);
-  cv::putText(img, "1 m", bar0 + cv::Point(static_cast<int>(v.scale) + 6, 5), cv::FONT_HERSHEY_SIMPLEX, 0.45,
-              cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  cv::putText(img, "1 m", bar0 + cv::Point(static_cast<int>(v.scale) + 6, 5),
+              cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   if (!cv::imwrite(png_path, img)) throw InputError(png_path, 0, "cannot write the picture");
 }
 

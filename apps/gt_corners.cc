@@ -36,9 +36,12 @@ std::map<int, ObjectClass> ReadObjectClasses(const std::string& path) {
     ObjectClass c = ObjectClass::kUnknown;
     if (o.contains("class")) {
       if (!o["class"].is_string() || !ParseObjectClass(o["class"].get<std::string>(), &c))
-        throw InputError(path, 0, where + " (id " + std::to_string(id) + "): unknown class " + o["class"].dump());
+        throw InputError(
+            path, 0,
+            where + " (id " + std::to_string(id) + "): unknown class " + o["class"].dump());
     }
-    if (!classes.emplace(id, c).second) throw InputError(path, 0, "object id " + std::to_string(id) + " repeated");
+    if (!classes.emplace(id, c).second)
+      throw InputError(path, 0, "object id " + std::to_string(id) + " repeated");
   }
   return classes;
 }
@@ -57,7 +60,8 @@ std::string SequenceRootOf(const std::string& input) {
   if (fs::is_directory(p)) {
     if (!fs::exists(p / "observations_gt.csv") && p.filename() == "mav0" && p.has_parent_path())
       return p.parent_path().string();
-    if (!fs::exists(p / "observations_gt.csv") && p.filename().empty() && p.parent_path().filename() == "mav0")
+    if (!fs::exists(p / "observations_gt.csv") && p.filename().empty() &&
+        p.parent_path().filename() == "mav0")
       return p.parent_path().parent_path().string();  // "DIR/mav0/"
     return p.string();
   }
@@ -73,7 +77,8 @@ GtCornersFrontend::GtCornersFrontend(const std::string& input, const GtCornersOp
   const std::vector<CornerRow> rows = ReadCornerRows(observations_path_);
   const std::map<int, ObjectClass> classes = ReadObjectClasses(objects_path);
 
-  // Corner noise: u_j += σ n, v_j += σ n', n ~ N(0, 1), drawn in file order (u1, v1, ..., v4 per row).
+  // Corner noise: u_j += σ n, v_j += σ n', n ~ N(0, 1), drawn in file order (u1, v1, ..., v4 per
+  // row).
   std::mt19937 rng(options.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   stats_.rows = static_cast<int>(rows.size());

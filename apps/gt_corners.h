@@ -1,7 +1,8 @@
-// The gt-corners front end (`fsp run --frontend gt-corners`): instead of detecting rectangles in the
-// images, it reads a rendered sequence's ground-truth corner projections (observations_gt.csv), keeps the
-// objects that are fully visible in each frame and adds Gaussian pixel noise: the paper's own experiment,
-// which measures the back end alone. Object classes come from objects_gt.json. No pixels are needed.
+// The gt-corners front end (`fsp run --frontend gt-corners`): instead of detecting rectangles in
+// the images, it reads a rendered sequence's ground-truth corner projections (observations_gt.csv),
+// keeps the objects that are fully visible in each frame and adds Gaussian pixel noise: the paper's
+// own experiment, which measures the back end alone. Object classes come from objects_gt.json. No
+// pixels are needed.
 #pragma once
 
 #include <cstdint>
@@ -15,8 +16,9 @@
 
 namespace fsp::apps {
 
-// Folder of a rendered sequence that holds observations_gt.csv for INPUT: INPUT itself, its parent when
-// INPUT is the mav0 folder, or the folder of INPUT when it is a file (video.mp4 of a rendered sequence).
+// Folder of a rendered sequence that holds observations_gt.csv for INPUT: INPUT itself, its parent
+// when INPUT is the mav0 folder, or the folder of INPUT when it is a file (video.mp4 of a rendered
+// sequence).
 std::string SequenceRootOf(const std::string& input);
 
 struct GtCornersStats {
@@ -28,13 +30,15 @@ struct GtCornersStats {
 
 class GtCornersFrontend {
  public:
-  // Reads ROOT/observations_gt.csv and ROOT/objects_gt.json (ROOT = SequenceRootOf(input)) and draws the
-  // noise of every fully visible row up front, in file order, from std::mt19937(options.seed): the noisy
-  // corners do not depend on which frames are processed (--realtime may drop some). Throws InputError
+  // Reads ROOT/observations_gt.csv and ROOT/objects_gt.json (ROOT = SequenceRootOf(input)) and
+  // draws the noise of every fully visible row up front, in file order, from
+  // std::mt19937(options.seed): the noisy corners do not depend on which frames are processed
+  // (--realtime may drop some). Throws InputError
   // ("gt-corners needs a rendered sequence: FILE not found", or naming the file and the problem).
   GtCornersFrontend(const std::string& input, const GtCornersOptions& options);
 
-  // The noisy observations of the frame at t_ns (exact time match; none when the frame has no rows).
+  // The noisy observations of the frame at t_ns (exact time match; none when the frame has no
+  // rows).
   std::vector<ObjectObservation> Process(int64_t t_ns);
 
   const std::string& observations_path() const { return observations_path_; }

@@ -2,15 +2,15 @@
 #include <cstdio>
 #include <exception>
 
-#include <CLI/CLI.hpp>
 #include <glog/logging.h>
+#include <CLI/CLI.hpp>
 
 #include "commands.h"
 #include "fsp/common/error.h"
 
 int main(int argc, char** argv) {
-  // Ceres logs through glog; its warnings (e.g. a rank-deficient covariance, reported in map.json as
-  // sigma -1) are not for users. Errors still show.
+  // Ceres logs through glog; its warnings (e.g. a rank-deficient covariance, reported in map.json
+  // as sigma -1) are not for users. Errors still show.
   FLAGS_minloglevel = google::GLOG_ERROR;
   FLAGS_logtostderr = true;
   google::InitGoogleLogging(argv[0]);

@@ -2,7 +2,7 @@
 # Installs the Debian 12 packages FSP-SLAM needs, and does nothing when they are all there.
 set -euo pipefail
 PACKAGES=(
-  build-essential cmake pkg-config
+  build-essential cmake pkg-config clang-format
   libeigen3-dev libopencv-dev libopencv-contrib-dev libceres-dev libapriltag-dev
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev

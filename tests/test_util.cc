@@ -22,7 +22,8 @@ CommandResult RunFsp(const std::string& args) {
                    (std::string(info->test_suite_name()) + "." + info->name());
   std::filesystem::create_directories(dir);
   const auto out = dir / "out.txt", err = dir / "err.txt";
-  const std::string cmd = std::string(FSP_BINARY) + " " + args + " >" + out.string() + " 2>" + err.string();
+  const std::string cmd =
+      std::string(FSP_BINARY) + " " + args + " >" + out.string() + " 2>" + err.string();
   const int status = std::system(cmd.c_str());
   CommandResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);

@@ -16,10 +16,11 @@ inline std::string TestDataDir() {
 }
 
 // Path of SUB inside the test data; the calling test skips (with the reason) when it is absent.
-#define FSP_REQUIRE_TEST_DATA(var, sub)                                                          \
-  const std::string var = ::fsp::test::TestDataDir() + "/" + (sub);                             \
-  if (::fsp::test::TestDataDir().empty() || !std::filesystem::exists(var))                      \
-  GTEST_SKIP() << "test data '" << (sub) << "' not found: set FSP_TEST_DATA to the shared data " \
+#define FSP_REQUIRE_TEST_DATA(var, sub)                                    \
+  const std::string var = ::fsp::test::TestDataDir() + "/" + (sub);        \
+  if (::fsp::test::TestDataDir().empty() || !std::filesystem::exists(var)) \
+  GTEST_SKIP() << "test data '" << (sub)                                   \
+               << "' not found: set FSP_TEST_DATA to the shared data "     \
                   "directory (see tests/README.md)"
 
 // A fresh, empty scratch directory named after the running test.

@@ -11,8 +11,8 @@ CornerPrediction PredictFhpCorners(const Mat3& K, const Rigid3& T_W_C, const Rig
   CornerPrediction out;
   out.in_front = true;
   for (int j = 0; j < 4; ++j) {
-    const Vec3 h =
-        AnchoredHomogeneousPoint(T_W_C, T_W_F, Rigid3::Identity(), landmark.Ray(j), landmark.Omega(j));
+    const Vec3 h = AnchoredHomogeneousPoint(T_W_C, T_W_F, Rigid3::Identity(), landmark.Ray(j),
+                                            landmark.Omega(j));
     out.h_z[j] = h.z();
     out.in_front = out.in_front && h.z() > 0.0;
     out.uv[j] = ProjectHomogeneous(K, h);
@@ -25,7 +25,8 @@ using Mat27R = Eigen::Matrix<double, 2, 7, Eigen::RowMajor>;
 using Mat23R = Eigen::Matrix<double, 2, 3, Eigen::RowMajor>;
 }  // namespace
 
-FhpFactor::FhpFactor(const Vec2& corner_px, const Mat3& K, const Rigid3& T_B_C, const FspFactorOptions& options)
+FhpFactor::FhpFactor(const Vec2& corner_px, const Mat3& K, const Rigid3& T_B_C,
+                     const FspFactorOptions& options)
     : obs_(corner_px), K_(K), T_B_C_(T_B_C), options_(options) {
   std::string why;
   FSP_CHECK(options_.Check(&why));
@@ -33,7 +34,8 @@ FhpFactor::FhpFactor(const Vec2& corner_px, const Mat3& K, const Rigid3& T_B_C, 
 }
 
 // FHP observation (the FSP paper's baseline): a = (u, v, 1), h = R_C_W(ω(p_W_F − p_W_C) + R_W_F a).
-bool FhpFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+bool FhpFactor::Evaluate(double const* const* parameters, double* residuals,
+                         double** jacobians) const {
   const Rigid3 T_W_Bc = PoseFromBlock(parameters[0]);
   const Rigid3 T_W_Ba = PoseFromBlock(parameters[1]);
   const double* c = parameters[2];
@@ -62,13 +64,14 @@ bool FhpFactor::Evaluate(double const* const* parameters, double* residuals, dou
   }
   if (jacobians[2] != nullptr) {
     Eigen::Map<Mat23R> J(jacobians[2]);
-    J.leftCols<2>() = D * Jh.d_a.leftCols<2>();   // da/du = e_x, da/dv = e_y
-    J.col(2) = omega * (D * Jh.d_omega);           // dh/dlog ω = ω dh/dω
+    J.leftCols<2>() = D * Jh.d_a.leftCols<2>();  // da/du = e_x, da/dv = e_y
+    J.col(2) = omega * (D * Jh.d_omega);         // dh/dlog ω = ω dh/dω
   }
   return true;
 }
 
-FhpAnchorFactor::FhpAnchorFactor(const Vec2& corner_px, const Mat3& K, const FspFactorOptions& options)
+FhpAnchorFactor::FhpAnchorFactor(const Vec2& corner_px, const Mat3& K,
+                                 const FspFactorOptions& options)
     : obs_(corner_px), K_(K), options_(options) {
   std::string why;
   FSP_CHECK(options_.Check(&why));
@@ -76,7 +79,8 @@ FhpAnchorFactor::FhpAnchorFactor(const Vec2& corner_px, const Mat3& K, const Fsp
 }
 
 // C = F: h = (u, v, 1), z = π(K h).
-bool FhpAnchorFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+bool FhpAnchorFactor::Evaluate(double const* const* parameters, double* residuals,
+                               double** jacobians) const {
   const Vec3 h(parameters[0][0], parameters[0][1], 1.0);
   Mat23 D;
   const bool want = jacobians != nullptr && jacobians[0] != nullptr;

@@ -26,22 +26,27 @@ bool RobustLossOptions::Check(std::string* why) const {
   return true;
 }
 
-std::unique_ptr<ceres::LossFunction> MakeRobustLoss(const RobustLossOptions& options, int residual_dim) {
+std::unique_ptr<ceres::LossFunction> MakeRobustLoss(const RobustLossOptions& options,
+                                                    int residual_dim) {
   std::string why;
   FSP_CHECK(options.Check(&why));
   FSP_CHECK(residual_dim > 0);
   // Ceres' Huber(a) and Cauchy(a) act on s = |e|²; the knee is at s = a², here a² = k² d.
   const double a = options.k_sigma * std::sqrt(static_cast<double>(residual_dim));
   switch (options.type) {
-    case RobustLossOptions::Type::kHuber: return std::make_unique<ceres::HuberLoss>(a);
-    case RobustLossOptions::Type::kCauchy: return std::make_unique<ceres::CauchyLoss>(a);
-    case RobustLossOptions::Type::kNone: break;
+    case RobustLossOptions::Type::kHuber:
+      return std::make_unique<ceres::HuberLoss>(a);
+    case RobustLossOptions::Type::kCauchy:
+      return std::make_unique<ceres::CauchyLoss>(a);
+    case RobustLossOptions::Type::kNone:
+      break;
   }
   return nullptr;
 }
 
-Vec3 AnchoredHomogeneousPoint(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor, const Rigid3& T_B_C,
-                              const Vec3& a, double omega, AnchoredPointJacobians* J) {
+Vec3 AnchoredHomogeneousPoint(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor,
+                              const Rigid3& T_B_C, const Vec3& a, double omega,
+                              AnchoredPointJacobians* J) {
   const Mat3 R_B_C = T_B_C.R();
   const Vec3& p_B_C = T_B_C.translation();
   const Mat3 R_W_Bc = T_W_Bcam.R();
@@ -86,7 +91,8 @@ CornerPrediction PredictFspCorners(const Mat3& K, const Rigid3& T_W_C, const Rig
   out.in_front = true;
   const double omega = landmark.Omega();
   for (int j = 0; j < 4; ++j) {
-    const Vec3 h = AnchoredHomogeneousPoint(T_W_C, T_W_F, Rigid3::Identity(), landmark.CornerDirF(j), omega);
+    const Vec3 h =
+        AnchoredHomogeneousPoint(T_W_C, T_W_F, Rigid3::Identity(), landmark.CornerDirF(j), omega);
     out.h_z[j] = h.z();
     out.in_front = out.in_front && h.z() > 0.0;
     out.uv[j] = ProjectHomogeneous(K, h);
@@ -111,7 +117,8 @@ FspLandmark LandmarkFromBlocks(const double* q_F_O, const double* x) {
 // Jacobians of a_j = r + R_F_O s̄_j w.r.t. the left perturbation of R_F_O (3) and x (5):
 //   da/dφ = −[R_F_O s̄_j]×,  da/du = e_x, da/dv = e_y, da/dlog ω = 0,
 //   da/dlog w̄ = R_F_O s̄_j (s̄ ∝ w̄),  da/dlog f = R_F_O (0, −s̄_j,y, 0) (s̄_y ∝ 1/f).
-void CornerDirJacobians(const FspLandmark& l, const Mat3& R_F_O, int j, Mat3* d_a_d_phi, Mat35* d_a_d_x) {
+void CornerDirJacobians(const FspLandmark& l, const Mat3& R_F_O, int j, Mat3* d_a_d_phi,
+                        Mat35* d_a_d_x) {
   const Vec3 sbar = l.SBar(j);
   const Vec3 Rs = R_F_O * sbar;
   *d_a_d_phi = -Skew(Rs);
@@ -124,15 +131,18 @@ void CornerDirJacobians(const FspLandmark& l, const Mat3& R_F_O, int j, Mat3* d_
 
 }  // namespace
 
-FspFactor::FspFactor(const Corners& corners_px, const Mat3& K, const Rigid3& T_B_C, const FspFactorOptions& options)
+FspFactor::FspFactor(const Corners& corners_px, const Mat3& K, const Rigid3& T_B_C,
+                     const FspFactorOptions& options)
     : obs_(corners_px), K_(K), T_B_C_(T_B_C), options_(options) {
   std::string why;
   FSP_CHECK(options_.Check(&why));
   FSP_CHECK(K_.row(2).isApprox(Eigen::RowVector3d(0.0, 0.0, 1.0)));
 }
 
-// The paper's FSP observation model in homogeneous form (DESIGN.md §3; formula and frames in fsp_factor.h).
-bool FspFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+// The paper's FSP observation model in homogeneous form (DESIGN.md §3; formula and frames in
+// fsp_factor.h).
+bool FspFactor::Evaluate(double const* const* parameters, double* residuals,
+                         double** jacobians) const {
   const Rigid3 T_W_Bc = PoseFromBlock(parameters[0]);
   const Rigid3 T_W_Ba = PoseFromBlock(parameters[1]);
   const FspLandmark l = LandmarkFromBlocks(parameters[2], parameters[3]);
@@ -188,7 +198,8 @@ bool FspFactor::Evaluate(double const* const* parameters, double* residuals, dou
   return true;
 }
 
-FspAnchorFactor::FspAnchorFactor(const Corners& corners_px, const Mat3& K, const FspFactorOptions& options)
+FspAnchorFactor::FspAnchorFactor(const Corners& corners_px, const Mat3& K,
+                                 const FspFactorOptions& options)
     : obs_(corners_px), K_(K), options_(options) {
   std::string why;
   FSP_CHECK(options_.Check(&why));
@@ -196,7 +207,8 @@ FspAnchorFactor::FspAnchorFactor(const Corners& corners_px, const Mat3& K, const
 }
 
 // C = F: h_j = a_j = r + R_F_O s̄_j, z_j = π(K a_j). No ω, no pose.
-bool FspAnchorFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+bool FspAnchorFactor::Evaluate(double const* const* parameters, double* residuals,
+                               double** jacobians) const {
   const FspLandmark l = LandmarkFromBlocks(parameters[0], parameters[1]);
   const Mat3 R_F_O = l.R_F_O();
   const double inv_sigma = 1.0 / options_.sigma_px;

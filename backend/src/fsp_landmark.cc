@@ -16,7 +16,8 @@ Mat34 LeftRotationJacobianWrtQuat(const Quat& q) {
   return 2.0 * J;
 }
 
-FspLandmark FspLandmark::Make(const Mat3& R_F_O, const Vec3& ray_s1, double omega, double wbar, double form) {
+FspLandmark FspLandmark::Make(const Mat3& R_F_O, const Vec3& ray_s1, double omega, double wbar,
+                              double form) {
   FSP_CHECK(omega > 0.0 && wbar > 0.0 && form > 0.0);
   FspLandmark l;
   const Quat q = Quat(R_F_O).normalized();
@@ -40,11 +41,21 @@ FspLandmark FspLandmark::FromObject(const Rigid3& T_F_O, double width, double he
   return Make(T_F_O.R(), s1 * omega, omega, width * omega, width / height);
 }
 
-Quat FspLandmark::QuatFO() const { return Quat(q_F_O[3], q_F_O[0], q_F_O[1], q_F_O[2]).normalized(); }
-Mat3 FspLandmark::R_F_O() const { return QuatFO().toRotationMatrix(); }
-double FspLandmark::Omega() const { return std::exp(x[kFspLogOmega]); }
-double FspLandmark::Wbar() const { return std::exp(x[kFspLogWbar]); }
-double FspLandmark::Form() const { return std::exp(x[kFspLogForm]); }
+Quat FspLandmark::QuatFO() const {
+  return Quat(q_F_O[3], q_F_O[0], q_F_O[1], q_F_O[2]).normalized();
+}
+Mat3 FspLandmark::R_F_O() const {
+  return QuatFO().toRotationMatrix();
+}
+double FspLandmark::Omega() const {
+  return std::exp(x[kFspLogOmega]);
+}
+double FspLandmark::Wbar() const {
+  return std::exp(x[kFspLogWbar]);
+}
+double FspLandmark::Form() const {
+  return std::exp(x[kFspLogForm]);
+}
 
 Eigen::Matrix<double, 2, 5> FspLandmark::SizeJacobian() const {
   Eigen::Matrix<double, 2, 5> J;
@@ -66,7 +77,9 @@ Vec3 FspLandmark::SBar(int j) const {
   return Vec3(wbar * kCornerXi[j], wbar * kCornerEta[j] / Form(), 0.0);
 }
 
-Vec3 FspLandmark::CornerDirF(int j) const { return Ray() + R_F_O() * SBar(j); }
+Vec3 FspLandmark::CornerDirF(int j) const {
+  return Ray() + R_F_O() * SBar(j);
+}
 
 std::array<Vec3, 4> FspLandmark::CornersF() const {
   std::array<Vec3, 4> p;
@@ -81,8 +94,12 @@ std::array<Vec3, 4> FspLandmark::CornersW(const Rigid3& T_W_F) const {
   return p;
 }
 
-Rigid3 FspLandmark::T_F_O() const { return Rigid3(QuatFO(), Ray() / Omega()); }
-Rigid3 FspLandmark::T_W_O(const Rigid3& T_W_F) const { return T_W_F * T_F_O(); }
+Rigid3 FspLandmark::T_F_O() const {
+  return Rigid3(QuatFO(), Ray() / Omega());
+}
+Rigid3 FspLandmark::T_W_O(const Rigid3& T_W_F) const {
+  return T_W_F * T_F_O();
+}
 
 FhpLandmark FhpLandmark::FromCornersF(const std::array<Vec3, 4>& p_F) {
   FhpLandmark l;
@@ -95,9 +112,13 @@ FhpLandmark FhpLandmark::FromCornersF(const std::array<Vec3, 4>& p_F) {
   return l;
 }
 
-FhpLandmark FhpLandmark::FromFsp(const FspLandmark& fsp) { return FromCornersF(fsp.CornersF()); }
+FhpLandmark FhpLandmark::FromFsp(const FspLandmark& fsp) {
+  return FromCornersF(fsp.CornersF());
+}
 
-double FhpLandmark::Omega(int j) const { return std::exp(corner[j][2]); }
+double FhpLandmark::Omega(int j) const {
+  return std::exp(corner[j][2]);
+}
 
 std::array<Vec3, 4> FhpLandmark::CornersF() const {
   std::array<Vec3, 4> p;
@@ -134,6 +155,8 @@ Rigid3 FhpLandmark::T_F_O() const {
   return Rigid3(R, centroid - R * Vec3(0.5 * Width(), 0.5 * Height(), 0.0));
 }
 
-Rigid3 FhpLandmark::T_W_O(const Rigid3& T_W_F) const { return T_W_F * T_F_O(); }
+Rigid3 FhpLandmark::T_W_O(const Rigid3& T_W_F) const {
+  return T_W_F * T_F_O();
+}
 
 }  // namespace fsp::backend

@@ -20,8 +20,8 @@ struct Terms {
   Vec3 dbg;
 };
 
-Terms Compute(const ImuPreintegration& pre, const double* pose_i, const double* sb_i, const double* pose_j,
-              const double* sb_j) {
+Terms Compute(const ImuPreintegration& pre, const double* pose_i, const double* sb_i,
+              const double* pose_j, const double* sb_j) {
   Terms t;
   const Eigen::Map<const Vec3> p_i(pose_i), p_j(pose_j);
   const Eigen::Map<const Quat> q_i(pose_i + 3), q_j(pose_j + 3);
@@ -45,16 +45,18 @@ Terms Compute(const ImuPreintegration& pre, const double* pose_i, const double* 
 
 }  // namespace
 
-ImuFactor::ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration) : pre_(std::move(preintegration)) {
+ImuFactor::ImuFactor(std::shared_ptr<const ImuPreintegration> preintegration)
+    : pre_(std::move(preintegration)) {
   FSP_CHECK(pre_ != nullptr);
 }
 
-Vec15 ImuFactor::UnwhitenedResidual(const double* pose_i, const double* speed_bias_i, const double* pose_j,
-                                    const double* speed_bias_j) const {
+Vec15 ImuFactor::UnwhitenedResidual(const double* pose_i, const double* speed_bias_i,
+                                    const double* pose_j, const double* speed_bias_j) const {
   return Compute(*pre_, pose_i, speed_bias_i, pose_j, speed_bias_j).r;
 }
 
-bool ImuFactor::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+bool ImuFactor::Evaluate(double const* const* parameters, double* residuals,
+                         double** jacobians) const {
   const ImuPreintegration& pre = *pre_;
   const Terms t = Compute(pre, parameters[0], parameters[1], parameters[2], parameters[3]);
   const Mat15& S = pre.sqrt_information();
@@ -80,7 +82,8 @@ bool ImuFactor::Evaluate(double const* const* parameters, double* residuals, dou
   if (jacobians[1]) {  // speed_bias_i = (v, b_g, b_a)
     Mat15x9 J = Mat15x9::Zero();
     const Vec3 corr = pre.dR_dbg() * t.dbg;
-    J.block<3, 3>(0, 3) = -Jr_inv * ExpSO3(r_phi).transpose() * RightJacobianSO3(corr) * pre.dR_dbg();
+    J.block<3, 3>(0, 3) =
+        -Jr_inv * ExpSO3(r_phi).transpose() * RightJacobianSO3(corr) * pre.dR_dbg();
     J.block<3, 3>(3, 0) = -RiT;
     J.block<3, 3>(3, 3) = -pre.dv_dbg();
     J.block<3, 3>(3, 6) = -pre.dv_dba();

@@ -15,7 +15,8 @@ bool PreintegrationOptions::Check(std::string* why) const {
     if (why) *why = what;
     return false;
   };
-  // (ImuNoise::Check lives in the calibration module; the fields the integrator uses are checked here.)
+  // (ImuNoise::Check lives in the calibration module; the fields the integrator uses are checked
+  // here.)
   if (!(noise.gyroscope_noise_density > 0.0) || !(noise.accelerometer_noise_density > 0.0))
     return fail("IMU white-noise densities must be > 0");
   if (!(noise.gyroscope_random_walk > 0.0) || !(noise.accelerometer_random_walk > 0.0))
@@ -26,8 +27,9 @@ bool PreintegrationOptions::Check(std::string* why) const {
   return true;
 }
 
-ImuPreintegration::ImuPreintegration(const PreintegrationOptions& options, const std::vector<ImuSample>& samples,
-                                     int64_t t_i_ns, int64_t t_j_ns, const Vec3& bg, const Vec3& ba)
+ImuPreintegration::ImuPreintegration(const PreintegrationOptions& options,
+                                     const std::vector<ImuSample>& samples, int64_t t_i_ns,
+                                     int64_t t_j_ns, const Vec3& bg, const Vec3& ba)
     : options_(options), t_i_ns_(t_i_ns), t_j_ns_(t_j_ns), bg_lin_(bg), ba_lin_(ba) {
   std::string why;
   FSP_CHECK(options_.Check(&why));
@@ -92,8 +94,10 @@ void ImuPreintegration::Integrate() {
   Vec3 dv = Vec3::Zero(), dp = Vec3::Zero();
   Mat9 cov = Mat9::Zero();
   Eigen::Matrix<double, 9, 6> J = Eigen::Matrix<double, 9, 6>::Zero();  // d(δφ, δv, δp)/d(b_g, b_a)
-  const double sg2 = options_.noise.gyroscope_noise_density * options_.noise.gyroscope_noise_density;
-  const double sa2 = options_.noise.accelerometer_noise_density * options_.noise.accelerometer_noise_density;
+  const double sg2 =
+      options_.noise.gyroscope_noise_density * options_.noise.gyroscope_noise_density;
+  const double sa2 =
+      options_.noise.accelerometer_noise_density * options_.noise.accelerometer_noise_density;
 
   for (size_t k = 0; k + 1 < knots_.size(); ++k) {
     const Knot& k0 = knots_[k];
@@ -157,7 +161,8 @@ void ImuPreintegration::Integrate() {
   // 15x15 residual covariance: preintegration noise + bias random walk over Δt.
   cov15_.setZero();
   cov15_.topLeftCorner<9, 9>() = cov_;
-  const double gw = options_.noise.gyroscope_random_walk, aw = options_.noise.accelerometer_random_walk;
+  const double gw = options_.noise.gyroscope_random_walk,
+               aw = options_.noise.accelerometer_random_walk;
   cov15_.block<3, 3>(9, 9) = Mat3::Identity() * gw * gw * dt_;
   cov15_.block<3, 3>(12, 12) = Mat3::Identity() * aw * aw * dt_;
   // Information Σ⁻¹ = L Lᵀ (Cholesky); whitening with Lᵀ: |Lᵀ r|² = rᵀ Σ⁻¹ r.
@@ -177,13 +182,14 @@ PreintegratedDelta ImuPreintegration::Corrected(const Vec3& bg, const Vec3& ba) 
   return d;
 }
 
-void ImuPreintegration::Predict(const Rigid3& T_W_Bi, const Vec3& v_i, const Vec3& bg, const Vec3& ba,
-                                Rigid3* T_W_Bj, Vec3* v_j) const {
+void ImuPreintegration::Predict(const Rigid3& T_W_Bi, const Vec3& v_i, const Vec3& bg,
+                                const Vec3& ba, Rigid3* T_W_Bj, Vec3* v_j) const {
   const PreintegratedDelta d = Corrected(bg, ba);
   const Vec3 g = GravityW(options_.gravity);
   const Quat& q_i = T_W_Bi.rotation();
   const Vec3& p_i = T_W_Bi.translation();
-  // R_j = R_i ΔR,  v_j = v_i + g Δt + R_i Δv,  p_j = p_i + v_i Δt + ½ g Δt² + R_i Δp  (Forster eq. 33).
+  // R_j = R_i ΔR,  v_j = v_i + g Δt + R_i Δv,  p_j = p_i + v_i Δt + ½ g Δt² + R_i Δp  (Forster eq.
+  // 33).
   if (T_W_Bj) *T_W_Bj = Rigid3(q_i * d.dR, p_i + v_i * dt_ + 0.5 * g * dt_ * dt_ + q_i * d.dp);
   if (v_j) *v_j = v_i + g * dt_ + q_i * d.dv;
 }

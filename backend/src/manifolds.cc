@@ -6,7 +6,9 @@
 
 namespace fsp::backend {
 
-std::unique_ptr<ceres::Manifold> MakePoseManifold() { return std::make_unique<PoseManifold>(); }
+std::unique_ptr<ceres::Manifold> MakePoseManifold() {
+  return std::make_unique<PoseManifold>();
+}
 
 void PosePlus(const double* x, const double* delta, double* x_plus_delta) {
   Eigen::Map<Vec3> p_out(x_plus_delta);
@@ -46,7 +48,9 @@ Mat43 QuaternionRightPlusJacobian(const double* q) {
 }
 
 // P_rᵀP_r = ¼[(wI − [v]×)(wI + [v]×) + v vᵀ] = ¼(w² + |v|²) I = I/4 for a unit quaternion.
-Mat34 QuaternionRightLift(const double* q) { return 4.0 * QuaternionRightPlusJacobian(q).transpose(); }
+Mat34 QuaternionRightLift(const double* q) {
+  return 4.0 * QuaternionRightPlusJacobian(q).transpose();
+}
 
 Mat67 PoseRightLift(const double* pose) {
   Mat67 L = Mat67::Zero();
@@ -66,8 +70,8 @@ Eigen::MatrixXd LiftJacobian(const ceres::Manifold* manifold, const double* x, i
   return (Pd.transpose() * Pd).ldlt().solve(Pd.transpose());
 }
 
-Eigen::MatrixXd MinusTangentJacobian(const ceres::Manifold* manifold, const double* x, const double* x0,
-                                     int ambient_size) {
+Eigen::MatrixXd MinusTangentJacobian(const ceres::Manifold* manifold, const double* x,
+                                     const double* x0, int ambient_size) {
   if (manifold == nullptr) return Eigen::MatrixXd::Identity(ambient_size, ambient_size);
   const int n = manifold->TangentSize();
   // ½ Log(Exp(2δ) Exp(φ)) ≈ ½ φ + Jl⁻¹(φ) δ with φ = Log(q ⊗ q0⁻¹) and Jl⁻¹(φ) = Jr⁻¹(−φ)

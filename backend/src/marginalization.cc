@@ -59,8 +59,11 @@ ScaledEigen Decompose(const Eigen::MatrixXd& A, double threshold) {
 }
 
 // Block minus x ⊟ x0 consistent with MinusTangentJacobian.
-Eigen::VectorXd BlockMinus(const ceres::Manifold* m, const double* x, const double* x0, int ambient) {
-  if (m == nullptr) return Eigen::Map<const Eigen::VectorXd>(x, ambient) - Eigen::Map<const Eigen::VectorXd>(x0, ambient);
+Eigen::VectorXd BlockMinus(const ceres::Manifold* m, const double* x, const double* x0,
+                           int ambient) {
+  if (m == nullptr)
+    return Eigen::Map<const Eigen::VectorXd>(x, ambient) -
+           Eigen::Map<const Eigen::VectorXd>(x0, ambient);
   if (dynamic_cast<const PoseManifold*>(m)) return PoseMinus(x, x0);
   if (dynamic_cast<const ceres::EigenQuaternionManifold*>(m)) {
     const Eigen::Map<const Quat> q(x), q_0(x0);
@@ -73,10 +76,11 @@ Eigen::VectorXd BlockMinus(const ceres::Manifold* m, const double* x, const doub
 
 }  // namespace
 
-MarginalizationSummary Marginalize(const std::vector<ResidualBlockInput>& residual_blocks,
-                                   const std::unordered_set<const double*>& to_marginalize,
-                                   const std::unordered_map<const double*, const ceres::Manifold*>& manifolds,
-                                   const MarginalizationOptions& options) {
+MarginalizationSummary Marginalize(
+    const std::vector<ResidualBlockInput>& residual_blocks,
+    const std::unordered_set<const double*>& to_marginalize,
+    const std::unordered_map<const double*, const ceres::Manifold*>& manifolds,
+    const MarginalizationOptions& options) {
   std::string why;
   FSP_CHECK(options.Check(&why));
   MarginalizationSummary summary;
@@ -158,8 +162,8 @@ MarginalizationSummary Marginalize(const std::vector<ResidualBlockInput>& residu
         Jt[k] = Ja[k];
       }
     }
-    // Robust loss: Ceres' corrector (Triggs et al., "Bundle adjustment — a modern synthesis", §4.3):
-    // J ← √ρ' (I − α/|r|² r rᵀ) J, r ← √ρ'/(1 − α) r, α = 1 − √(1 + 2|r|²ρ''/ρ').
+    // Robust loss: Ceres' corrector (Triggs et al., "Bundle adjustment — a modern synthesis",
+    // §4.3): J ← √ρ' (I − α/|r|² r rᵀ) J, r ← √ρ'/(1 − α) r, α = 1 − √(1 + 2|r|²ρ''/ρ').
     if (rb.loss) {
       const double sq = r.squaredNorm();
       double rho[3];
@@ -210,7 +214,8 @@ MarginalizationSummary Marginalize(const std::vector<ResidualBlockInput>& residu
   auto prior = std::make_shared<LinearPrior>();
   const Eigen::VectorXd sqrt_d = ek.inv_sqrt_d.cwiseInverse();
   prior->J = ek.s.cwiseSqrt().asDiagonal() * ek.V.transpose() * sqrt_d.asDiagonal();
-  prior->r0 = ek.s.cwiseSqrt().cwiseInverse().asDiagonal() * ek.V.transpose() * (ek.inv_sqrt_d.cwiseProduct(gs));
+  prior->r0 = ek.s.cwiseSqrt().cwiseInverse().asDiagonal() * ek.V.transpose() *
+              (ek.inv_sqrt_d.cwiseProduct(gs));
   for (const BlockInfo& b : kept) {
     prior->blocks.push_back(b.ptr);
     prior->ambient_sizes.push_back(b.ambient);
@@ -256,7 +261,8 @@ bool MarginalizationPriorFactor::Evaluate(double const* const* parameters, doubl
   Eigen::VectorXd dx(p.tangent_dim());
   int off = 0;
   for (size_t b = 0; b < p.blocks.size(); ++b) {
-    dx.segment(off, p.tangent_sizes[b]) = BlockMinus(p.manifolds[b], parameters[b], p.x0[b].data(), p.ambient_sizes[b]);
+    dx.segment(off, p.tangent_sizes[b]) =
+        BlockMinus(p.manifolds[b], parameters[b], p.x0[b].data(), p.ambient_sizes[b]);
     off += p.tangent_sizes[b];
   }
   Eigen::Map<Eigen::VectorXd> r(residuals, nr);
@@ -268,7 +274,8 @@ bool MarginalizationPriorFactor::Evaluate(double const* const* parameters, doubl
     if (jacobians[b]) {
       // ∂r/∂x_b = J_b · ∂(x ⊟ x0)/∂δ · lift  (tangent Jacobian of the minus, lifted to ambient).
       const Eigen::MatrixXd Jt =
-          p.J.middleCols(off, t) * MinusTangentJacobian(p.manifolds[b], parameters[b], p.x0[b].data(), a);
+          p.J.middleCols(off, t) *
+          MinusTangentJacobian(p.manifolds[b], parameters[b], p.x0[b].data(), a);
       Eigen::Map<RowMajorMatrix> Ja(jacobians[b], nr, a);
       Ja = Jt * LiftJacobian(p.manifolds[b], parameters[b], a);
     }

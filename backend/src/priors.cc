@@ -6,12 +6,14 @@
 
 namespace fsp::backend {
 
-PosePrior::PosePrior(const Rigid3& T_W_B0, double sigma_p, double sigma_roll_pitch, double sigma_yaw)
+PosePrior::PosePrior(const Rigid3& T_W_B0, double sigma_p, double sigma_roll_pitch,
+                     double sigma_yaw)
     : T0_(T_W_B0),
       inv_sigma_p_(Vec3::Constant(1.0 / sigma_p)),
       inv_sigma_rot_(1.0 / sigma_roll_pitch, 1.0 / sigma_roll_pitch, 1.0 / sigma_yaw) {}
 
-bool PosePrior::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+bool PosePrior::Evaluate(double const* const* parameters, double* residuals,
+                         double** jacobians) const {
   const Rigid3 T = PoseFromBlock(parameters[0]);
   Eigen::Map<Eigen::Matrix<double, 6, 1>> r(residuals);
   // Rotation error in the world frame: φ = Log(R R0ᵀ).
@@ -24,15 +26,18 @@ bool PosePrior::Evaluate(double const* const* parameters, double* residuals, dou
     J.block<3, 3>(0, 0) = inv_sigma_p_.asDiagonal();
     // R -> Exp(δ) R changes φ by Jl⁻¹(φ) δ = Jr⁻¹(−φ) δ; δ = LeftRotationJacobianWrtQuat(q) dq.
     const Mat3 d_phi_d_delta = RightJacobianInvSO3(-phi);
-    J.block<3, 4>(3, 3) = inv_sigma_rot_.asDiagonal() * d_phi_d_delta * LeftRotationJacobianWrtQuat(T.rotation());
+    J.block<3, 4>(3, 3) =
+        inv_sigma_rot_.asDiagonal() * d_phi_d_delta * LeftRotationJacobianWrtQuat(T.rotation());
   }
   return true;
 }
 
-SpeedBiasPrior::SpeedBiasPrior(const Eigen::Matrix<double, 9, 1>& sb0, const Eigen::Matrix<double, 9, 1>& sigma)
+SpeedBiasPrior::SpeedBiasPrior(const Eigen::Matrix<double, 9, 1>& sb0,
+                               const Eigen::Matrix<double, 9, 1>& sigma)
     : sb0_(sb0), inv_sigma_(sigma.cwiseInverse()) {}
 
-bool SpeedBiasPrior::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+bool SpeedBiasPrior::Evaluate(double const* const* parameters, double* residuals,
+                              double** jacobians) const {
   Eigen::Map<const Eigen::Matrix<double, 9, 1>> sb(parameters[0]);
   Eigen::Map<Eigen::Matrix<double, 9, 1>> r(residuals);
   r = inv_sigma_.cwiseProduct(sb - sb0_);
@@ -46,7 +51,8 @@ bool SpeedBiasPrior::Evaluate(double const* const* parameters, double* residuals
 LogWidthPrior::LogWidthPrior(double width_prior_m, double sigma_log)
     : log_w0_(std::log(width_prior_m)), inv_sigma_(1.0 / sigma_log) {}
 
-bool LogWidthPrior::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+bool LogWidthPrior::Evaluate(double const* const* parameters, double* residuals,
+                             double** jacobians) const {
   const double* x = parameters[0];
   residuals[0] = inv_sigma_ * (x[kFspLogWbar] - x[kFspLogOmega] - log_w0_);
   if (jacobians && jacobians[0]) {

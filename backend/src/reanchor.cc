@@ -6,8 +6,8 @@
 
 namespace fsp::backend {
 
-bool ReanchorFsp(const FspLandmark& in, const Rigid3& T_W_F, const Rigid3& T_W_Fnew, FspLandmark* out,
-                 std::string* why) {
+bool ReanchorFsp(const FspLandmark& in, const Rigid3& T_W_F, const Rigid3& T_W_Fnew,
+                 FspLandmark* out, std::string* why) {
   FSP_CHECK(out != nullptr);
   const Rigid3 T_Fn_F = T_W_Fnew.Inverse() * T_W_F;
   const double omega = in.Omega();
@@ -20,15 +20,16 @@ bool ReanchorFsp(const FspLandmark& in, const Rigid3& T_W_F, const Rigid3& T_W_F
   const double omega_new = 1.0 / q.z();
   // Metric width kept: w̄' = (w̄/ω) ω'; log w̄' = log w̄ − log ω + log ω' (no exp/log round trip).
   const double log_wbar_new = in.x[kFspLogWbar] - in.x[kFspLogOmega] + std::log(omega_new);
-  FspLandmark l = FspLandmark::Make(T_Fn_F.R() * in.R_F_O(), q * omega_new, omega_new, 1.0, in.Form());
+  FspLandmark l =
+      FspLandmark::Make(T_Fn_F.R() * in.R_F_O(), q * omega_new, omega_new, 1.0, in.Form());
   l.x[kFspLogWbar] = log_wbar_new;
   l.x[kFspLogForm] = in.x[kFspLogForm];
   *out = l;
   return true;
 }
 
-bool ReanchorFhp(const FhpLandmark& in, const Rigid3& T_W_F, const Rigid3& T_W_Fnew, FhpLandmark* out,
-                 std::string* why) {
+bool ReanchorFhp(const FhpLandmark& in, const Rigid3& T_W_F, const Rigid3& T_W_Fnew,
+                 FhpLandmark* out, std::string* why) {
   FSP_CHECK(out != nullptr);
   const Rigid3 T_Fn_F = T_W_Fnew.Inverse() * T_W_F;
   FhpLandmark l;

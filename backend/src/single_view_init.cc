@@ -21,26 +21,35 @@ bool SingleViewInitOptions::Check(std::string* why) const {
     return false;
   };
   for (double w : {width_door_m, width_window_m, width_cabinet_m, width_poster_m, width_tag_m}) {
-    if (!(w > 0.0) || !std::isfinite(w)) return fail("class width priors must be positive and finite");
+    if (!(w > 0.0) || !std::isfinite(w))
+      return fail("class width priors must be positive and finite");
   }
-  if (!(default_depth_m > 0.0) || !std::isfinite(default_depth_m)) return fail("default_depth_m must be > 0");
+  if (!(default_depth_m > 0.0) || !std::isfinite(default_depth_m))
+    return fail("default_depth_m must be > 0");
   if (!(max_abs_cos > 0.0 && max_abs_cos <= 1.0)) return fail("max_abs_cos must be in (0, 1]");
   if (!(max_rms_sigma > 0.0)) return fail("max_rms_sigma must be > 0");
   if (max_iterations < 0) return fail("max_iterations must be >= 0");
   if (!(sigma_px > 0.0) || !std::isfinite(sigma_px)) return fail("sigma_px must be > 0");
-  if (!(up_sigma_rad > 0.0) || !std::isfinite(up_sigma_rad)) return fail("up_sigma_rad must be > 0");
+  if (!(up_sigma_rad > 0.0) || !std::isfinite(up_sigma_rad))
+    return fail("up_sigma_rad must be > 0");
   if (!(min_triangle_area_px2 >= 0.0)) return fail("min_triangle_area_px2 must be >= 0");
   return true;
 }
 
 double ClassWidthPrior(const SingleViewInitOptions& options, ObjectClass object_class) {
   switch (object_class) {
-    case ObjectClass::kDoor: return options.width_door_m;
-    case ObjectClass::kWindow: return options.width_window_m;
-    case ObjectClass::kCabinet: return options.width_cabinet_m;
-    case ObjectClass::kPoster: return options.width_poster_m;
-    case ObjectClass::kTag: return options.width_tag_m;
-    case ObjectClass::kUnknown: break;
+    case ObjectClass::kDoor:
+      return options.width_door_m;
+    case ObjectClass::kWindow:
+      return options.width_window_m;
+    case ObjectClass::kCabinet:
+      return options.width_cabinet_m;
+    case ObjectClass::kPoster:
+      return options.width_poster_m;
+    case ObjectClass::kTag:
+      return options.width_tag_m;
+    case ObjectClass::kUnknown:
+      break;
   }
   return -1.0;
 }
@@ -50,11 +59,13 @@ namespace {
 using Mat34R = Eigen::Matrix<double, 3, 4, Eigen::RowMajor>;
 
 // Soft "y axis is up" prior: e = (R_F_O e_y − up_F) / σ (3 residuals, rank 2).
-// Left perturbation R -> Exp(φ) R: d(R e_y)/dφ = −[R e_y]×; ambient via LeftRotationJacobianWrtQuat.
+// Left perturbation R -> Exp(φ) R: d(R e_y)/dφ = −[R e_y]×; ambient via
+// LeftRotationJacobianWrtQuat.
 class UpPrior final : public ceres::SizedCostFunction<3, 4> {
  public:
   UpPrior(const Vec3& up_F, double sigma) : up_(up_F), inv_sigma_(1.0 / sigma) {}
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
     const double* q = parameters[0];
     const Quat quat = Quat(q[3], q[0], q[1], q[2]).normalized();
     const Vec3 y = quat * Vec3::UnitY();
@@ -74,11 +85,13 @@ class UpPrior final : public ceres::SizedCostFunction<3, 4> {
 
 double RmsPx(const FspLandmark& l, const Corners& corners_px, const Mat3& K) {
   double ss = 0.0;
-  for (int j = 0; j < 4; ++j) ss += (ProjectHomogeneous(K, l.CornerDirF(j)) - corners_px[j]).squaredNorm();
+  for (int j = 0; j < 4; ++j)
+    ss += (ProjectHomogeneous(K, l.CornerDirF(j)) - corners_px[j]).squaredNorm();
   return std::sqrt(ss / 8.0);
 }
 
-SingleViewInitSummary Fail(SingleViewInitSummary s, SingleViewInitSummary::Status status, std::string reason) {
+SingleViewInitSummary Fail(SingleViewInitSummary s, SingleViewInitSummary::Status status,
+                           std::string reason) {
   s.status = status;
   s.reason = std::move(reason);
   return s;
@@ -86,14 +99,18 @@ SingleViewInitSummary Fail(SingleViewInitSummary s, SingleViewInitSummary::Statu
 
 }  // namespace
 
-SingleViewInitSummary InitializeFspSingleView(const Corners& corners_px, const Mat3& K, ObjectClass object_class,
-                                              const SingleViewInitOptions& options, const std::optional<Vec3>& up_F) {
+SingleViewInitSummary InitializeFspSingleView(const Corners& corners_px, const Mat3& K,
+                                              ObjectClass object_class,
+                                              const SingleViewInitOptions& options,
+                                              const std::optional<Vec3>& up_F) {
   using Status = SingleViewInitSummary::Status;
   SingleViewInitSummary s;
   std::string why;
   if (!options.Check(&why)) return Fail(s, Status::kInvalidInput, "options: " + why);
-  if (!K.allFinite() || !K.row(2).isApprox(Eigen::RowVector3d(0.0, 0.0, 1.0)) || std::abs(K.determinant()) < 1e-12) {
-    return Fail(s, Status::kInvalidInput, "K is not an invertible pinhole matrix with last row (0 0 1)");
+  if (!K.allFinite() || !K.row(2).isApprox(Eigen::RowVector3d(0.0, 0.0, 1.0)) ||
+      std::abs(K.determinant()) < 1e-12) {
+    return Fail(s, Status::kInvalidInput,
+                "K is not an invertible pinhole matrix with last row (0 0 1)");
   }
   for (const Vec2& c : corners_px) {
     if (!c.allFinite()) return Fail(s, Status::kInvalidInput, "corner is not finite");
@@ -125,8 +142,9 @@ SingleViewInitSummary InitializeFspSingleView(const Corners& corners_px, const M
   s.c4 = m13.dot(m[1]) / den4;
   s.lambda3 = s.c2 + s.c4 - 1.0;
   if (!(s.c2 > 0.0 && s.c4 > 0.0 && s.lambda3 > 0.0)) {
-    return Fail(s, Status::kBehindCamera,
-                "a corner would lie behind the camera (non-convex quadrilateral or wrong corner order)");
+    return Fail(
+        s, Status::kBehindCamera,
+        "a corner would lie behind the camera (non-convex quadrilateral or wrong corner order)");
   }
   const Vec3 n2 = s.c2 * m[1] - m[0];
   const Vec3 n4 = s.c4 * m[3] - m[0];
@@ -170,8 +188,10 @@ SingleViewInitSummary InitializeFspSingleView(const Corners& corners_px, const M
     fo.sigma_px = options.sigma_px;
     ceres::Problem::Options po;
     ceres::Problem problem(po);
-    problem.AddResidualBlock(new FspAnchorFactor(corners_px, K, fo), nullptr, s.landmark.q_F_O, s.landmark.x);
-    if (s.up_used) problem.AddResidualBlock(new UpPrior(up, options.up_sigma_rad), nullptr, s.landmark.q_F_O);
+    problem.AddResidualBlock(new FspAnchorFactor(corners_px, K, fo), nullptr, s.landmark.q_F_O,
+                             s.landmark.x);
+    if (s.up_used)
+      problem.AddResidualBlock(new UpPrior(up, options.up_sigma_rad), nullptr, s.landmark.q_F_O);
     problem.SetManifold(s.landmark.q_F_O, new ceres::EigenQuaternionManifold());
     problem.SetManifold(s.landmark.x, new ceres::SubsetManifold(5, {kFspLogOmega}));
     ceres::Solver::Options so;
@@ -190,7 +210,8 @@ SingleViewInitSummary InitializeFspSingleView(const Corners& corners_px, const M
     Eigen::Map<Eigen::Vector4d>(s.landmark.q_F_O).normalize();
   }
   s.rms_px = RmsPx(s.landmark, corners_px, K);
-  if (options.refine && options.max_iterations > 0 && s.rms_px > options.max_rms_sigma * options.sigma_px) {
+  if (options.refine && options.max_iterations > 0 &&
+      s.rms_px > options.max_rms_sigma * options.sigma_px) {
     return Fail(s, Status::kNotRectangle,
                 "no rectangle fits the corners: RMS " + std::to_string(s.rms_px) + " px > " +
                     std::to_string(options.max_rms_sigma * options.sigma_px) + " px");

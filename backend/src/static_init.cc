@@ -13,7 +13,8 @@ bool StaticInitOptions::Check(std::string* why) const {
     return false;
   };
   if (!(window_s > 0.0)) return fail("window_s must be > 0");
-  if (!(block_s > 0.0) || block_s * 2.0 > window_s) return fail("block_s must be > 0 and <= window_s / 2");
+  if (!(block_s > 0.0) || block_s * 2.0 > window_s)
+    return fail("block_s must be > 0 and <= window_s / 2");
   if (!(max_gyro_block_std > 0.0) || !(max_acc_block_std > 0.0) || !(max_gravity_error > 0.0))
     return fail("stillness thresholds must be > 0");
   if (min_samples < 2) return fail("min_samples must be >= 2");
@@ -31,8 +32,8 @@ std::string Format(const char* fmt, double a, double b) {
 
 }  // namespace
 
-StaticInitSummary StaticInitialize(const std::vector<ImuSample>& imu, const StaticInitOptions& options,
-                                   int64_t t_start_ns) {
+StaticInitSummary StaticInitialize(const std::vector<ImuSample>& imu,
+                                   const StaticInitOptions& options, int64_t t_start_ns) {
   std::string why;
   FSP_CHECK(options.Check(&why));
   StaticInitSummary s;
@@ -65,8 +66,9 @@ StaticInitSummary StaticInitialize(const std::vector<ImuSample>& imu, const Stat
     }
   }
   if (s.num_samples < options.min_samples) {
-    s.reason = Format("too few IMU samples: %.0f in the %.2f s window", s.num_samples, options.window_s) +
-               " (need " + std::to_string(options.min_samples) + ")";
+    s.reason =
+        Format("too few IMU samples: %.0f in the %.2f s window", s.num_samples, options.window_s) +
+        " (need " + std::to_string(options.min_samples) + ")";
     return s;
   }
   const double n = s.num_samples;
@@ -102,18 +104,21 @@ StaticInitSummary StaticInitialize(const std::vector<ImuSample>& imu, const Stat
   s.gravity_error = s.acc_mean.norm() - options.gravity;
 
   if (s.gyro_block_std > options.max_gyro_block_std) {
-    s.reason = Format("too much motion: gyro block-mean std %.4f rad/s > %.4f (the start is not still)",
-                      s.gyro_block_std, options.max_gyro_block_std);
+    s.reason =
+        Format("too much motion: gyro block-mean std %.4f rad/s > %.4f (the start is not still)",
+               s.gyro_block_std, options.max_gyro_block_std);
     return s;
   }
   if (s.acc_block_std > options.max_acc_block_std) {
-    s.reason = Format("too much motion: accelerometer block-mean std %.3f m/s^2 > %.3f (the start is not still)",
-                      s.acc_block_std, options.max_acc_block_std);
+    s.reason = Format(
+        "too much motion: accelerometer block-mean std %.3f m/s^2 > %.3f (the start is not still)",
+        s.acc_block_std, options.max_acc_block_std);
     return s;
   }
   if (std::abs(s.gravity_error) > options.max_gravity_error) {
-    s.reason = Format("mean specific force %.3f m/s^2 is not gravity (%.3f): accelerating or miscalibrated",
-                      s.acc_mean.norm(), options.gravity);
+    s.reason = Format(
+        "mean specific force %.3f m/s^2 is not gravity (%.3f): accelerating or miscalibrated",
+        s.acc_mean.norm(), options.gravity);
     return s;
   }
 

@@ -14,7 +14,9 @@ namespace {
 
 using internal::YamlFile;
 
-bool PositiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
+bool PositiveFinite(double v) {
+  return std::isfinite(v) && v > 0.0;
+}
 
 // Shortest decimal text that reads back to exactly V.
 std::string Num(double v) {
@@ -23,32 +25,40 @@ std::string Num(double v) {
   return std::string(buf, res.ptr);
 }
 
-// The four Kalibr densities plus the rate ("rate_hz" in EuRoC/FSP files, "update_rate" in Kalibr's).
+// The four Kalibr densities plus the rate ("rate_hz" in EuRoC/FSP files, "update_rate" in
+// Kalibr's).
 ImuNoise ParseImuNoise(const YamlFile& f, const YAML::Node& map) {
   ImuNoise n;
-  n.gyroscope_noise_density = f.Double(f.Require(map, "gyroscope_noise_density"), "gyroscope_noise_density");
+  n.gyroscope_noise_density =
+      f.Double(f.Require(map, "gyroscope_noise_density"), "gyroscope_noise_density");
   n.accelerometer_noise_density =
       f.Double(f.Require(map, "accelerometer_noise_density"), "accelerometer_noise_density");
-  n.gyroscope_random_walk = f.Double(f.Require(map, "gyroscope_random_walk"), "gyroscope_random_walk");
-  n.accelerometer_random_walk = f.Double(f.Require(map, "accelerometer_random_walk"), "accelerometer_random_walk");
-  if (map["rate_hz"]) n.rate_hz = f.Double(map["rate_hz"], "rate_hz");
-  else if (map["update_rate"]) n.rate_hz = f.Double(map["update_rate"], "update_rate");
+  n.gyroscope_random_walk =
+      f.Double(f.Require(map, "gyroscope_random_walk"), "gyroscope_random_walk");
+  n.accelerometer_random_walk =
+      f.Double(f.Require(map, "accelerometer_random_walk"), "accelerometer_random_walk");
+  if (map["rate_hz"])
+    n.rate_hz = f.Double(map["rate_hz"], "rate_hz");
+  else if (map["update_rate"])
+    n.rate_hz = f.Double(map["update_rate"], "update_rate");
   std::string why;
   if (!n.Check(&why)) f.Fail(map, "IMU noise: " + why);
   return n;
 }
 
 // Rejects every model but pinhole + radial-tangential (or no distortion).
-void CheckCameraModel(const YamlFile& f, const YAML::Node& cam, const char* model_key, const char* dist_key) {
+void CheckCameraModel(const YamlFile& f, const YAML::Node& cam, const char* model_key,
+                      const char* dist_key) {
   const YAML::Node model = cam[model_key];
   const YAML::Node dist = cam[dist_key];
   const std::string m = model ? f.String(model, model_key) : "pinhole";
   const std::string d = dist ? f.String(dist, dist_key) : "radtan";
   const bool radtan = d == "radtan" || d == "radial-tangential" || d == "plumb_bob" || d == "none";
   if (m != "pinhole" || !radtan) {
-    f.Fail(model ? model : cam, "unsupported camera model '" + m + "' with '" + d +
-                                    "' distortion: fsp supports pinhole cameras with radial-tangential "
-                                    "(radtan) distortion only");
+    f.Fail(model ? model : cam,
+           "unsupported camera model '" + m + "' with '" + d +
+               "' distortion: fsp supports pinhole cameras with radial-tangential "
+               "(radtan) distortion only");
   }
 }
 
@@ -65,7 +75,8 @@ void ParseIntrinsics(const YamlFile& f, const YAML::Node& cam, PinholeRadtan* ca
   camera->height = f.Int(res[1], "resolution[1]");
 }
 
-void ParseDistortion(const YamlFile& f, const YAML::Node& node, const std::string& name, PinholeRadtan* camera) {
+void ParseDistortion(const YamlFile& f, const YAML::Node& node, const std::string& name,
+                     PinholeRadtan* camera) {
   if (!node) return;  // no distortion
   if (node.IsSequence() && node.size() == 0) return;
   const std::vector<double> d = f.Doubles(node, name, 4);
@@ -125,7 +136,8 @@ void ParseFsp(const YamlFile& f, bool check_model, Calibration* c) {
   if (cam["rate_hz"]) c->camera_rate_hz = f.Double(cam["rate_hz"], "rate_hz");
   if (root["time_offset_ns"]) {
     const double off = f.Double(root["time_offset_ns"], "time_offset_ns");
-    if (off != std::floor(off)) f.Fail(root["time_offset_ns"], "'time_offset_ns' is not an integer");
+    if (off != std::floor(off))
+      f.Fail(root["time_offset_ns"], "'time_offset_ns' is not an integer");
     c->time_offset_ns = static_cast<int64_t>(off);
   }
   if (root["imu"]) {
@@ -147,9 +159,11 @@ Calibration Parse(const std::string& path, bool check_model) {
     ParseEuroc(f, check_model, &c);
   } else {
     const bool imu_only = root["imu0"] || root["gyroscope_noise_density"] || root["imu"];
-    f.Fail(root, std::string(imu_only ? "holds only an IMU calibration; " : "") +
-                     "not a camera calibration: expected an EuRoC sensor.yaml (T_BS, intrinsics), a Kalibr "
-                     "camchain (cam0:) or an fsp calib.yaml (camera:, T_B_C:)");
+    f.Fail(
+        root,
+        std::string(imu_only ? "holds only an IMU calibration; " : "") +
+            "not a camera calibration: expected an EuRoC sensor.yaml (T_BS, intrinsics), a Kalibr "
+            "camchain (cam0:) or an fsp calib.yaml (camera:, T_B_C:)");
   }
   if (check_model) {
     std::string why;
@@ -162,11 +176,16 @@ Calibration Parse(const std::string& path, bool check_model) {
 
 bool ImuNoise::Check(std::string* why) const {
   std::string w;
-  if (!PositiveFinite(gyroscope_noise_density)) w = "gyroscope_noise_density must be positive";
-  else if (!PositiveFinite(accelerometer_noise_density)) w = "accelerometer_noise_density must be positive";
-  else if (!PositiveFinite(gyroscope_random_walk)) w = "gyroscope_random_walk must be positive";
-  else if (!PositiveFinite(accelerometer_random_walk)) w = "accelerometer_random_walk must be positive";
-  else if (!PositiveFinite(rate_hz)) w = "IMU rate_hz must be positive";
+  if (!PositiveFinite(gyroscope_noise_density))
+    w = "gyroscope_noise_density must be positive";
+  else if (!PositiveFinite(accelerometer_noise_density))
+    w = "accelerometer_noise_density must be positive";
+  else if (!PositiveFinite(gyroscope_random_walk))
+    w = "gyroscope_random_walk must be positive";
+  else if (!PositiveFinite(accelerometer_random_walk))
+    w = "accelerometer_random_walk must be positive";
+  else if (!PositiveFinite(rate_hz))
+    w = "IMU rate_hz must be positive";
   if (why) *why = w;
   return w.empty();
 }
@@ -186,9 +205,13 @@ bool Calibration::Check(std::string* why) const {
   return w.empty();
 }
 
-Calibration ReadCalibration(const std::string& path) { return Parse(path, true); }
+Calibration ReadCalibration(const std::string& path) {
+  return Parse(path, true);
+}
 
-Rigid3 ReadCameraExtrinsics(const std::string& path) { return Parse(path, false).T_B_C; }
+Rigid3 ReadCameraExtrinsics(const std::string& path) {
+  return Parse(path, false).T_B_C;
+}
 
 ImuNoise ReadImuNoise(const std::string& path) {
   const YamlFile f(path, "IMU calibration file");
@@ -196,8 +219,10 @@ ImuNoise ReadImuNoise(const std::string& path) {
   if (root["imu"]) return ParseImuNoise(f, root["imu"]);
   if (root["imu0"]) return ParseImuNoise(f, root["imu0"]);
   if (root["gyroscope_noise_density"]) return ParseImuNoise(f, root);
-  f.Fail(root, "no IMU noise: expected an EuRoC imu0/sensor.yaml (gyroscope_noise_density, ...), a Kalibr imu "
-               "chain (imu0:) or an fsp calib.yaml (imu:)");
+  f.Fail(root,
+         "no IMU noise: expected an EuRoC imu0/sensor.yaml (gyroscope_noise_density, ...), a "
+         "Kalibr imu "
+         "chain (imu0:) or an fsp calib.yaml (imu:)");
 }
 
 void WriteCalibration(const Calibration& calib, const std::string& path) {
@@ -226,10 +251,14 @@ void WriteCalibration(const Calibration& calib, const std::string& path) {
      << "time_offset_ns: " << calib.time_offset_ns << "  # t_imu = t_cam + time_offset_ns\n"
      << "imu:\n"
      << "  rate_hz: " << Num(imu.rate_hz) << "\n"
-     << "  gyroscope_noise_density: " << Num(imu.gyroscope_noise_density) << "      # [rad/s/sqrt(Hz)]\n"
-     << "  accelerometer_noise_density: " << Num(imu.accelerometer_noise_density) << "  # [m/s^2/sqrt(Hz)]\n"
-     << "  gyroscope_random_walk: " << Num(imu.gyroscope_random_walk) << "        # [rad/s^2/sqrt(Hz)]\n"
-     << "  accelerometer_random_walk: " << Num(imu.accelerometer_random_walk) << "    # [m/s^3/sqrt(Hz)]\n";
+     << "  gyroscope_noise_density: " << Num(imu.gyroscope_noise_density)
+     << "      # [rad/s/sqrt(Hz)]\n"
+     << "  accelerometer_noise_density: " << Num(imu.accelerometer_noise_density)
+     << "  # [m/s^2/sqrt(Hz)]\n"
+     << "  gyroscope_random_walk: " << Num(imu.gyroscope_random_walk)
+     << "        # [rad/s^2/sqrt(Hz)]\n"
+     << "  accelerometer_random_walk: " << Num(imu.accelerometer_random_walk)
+     << "    # [m/s^3/sqrt(Hz)]\n";
   std::ofstream out(path);
   if (!out) throw InputError(path, 0, "cannot write calibration file");
   out << os.str();

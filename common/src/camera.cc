@@ -7,11 +7,14 @@ namespace fsp {
 
 bool PinholeRadtan::Check(std::string* why) const {
   std::ostringstream os;
-  if (width <= 0 || height <= 0) os << "image size " << width << "x" << height << " is not positive";
+  if (width <= 0 || height <= 0)
+    os << "image size " << width << "x" << height << " is not positive";
   else if (!(fx > 0.0) || !(fy > 0.0) || !std::isfinite(fx) || !std::isfinite(fy))
     os << "focal length (" << fx << ", " << fy << ") is not positive and finite";
-  else if (!std::isfinite(cx) || !std::isfinite(cy) || cx < 0.0 || cy < 0.0 || cx > width || cy > height)
-    os << "principal point (" << cx << ", " << cy << ") lies outside the " << width << "x" << height << " image";
+  else if (!std::isfinite(cx) || !std::isfinite(cy) || cx < 0.0 || cy < 0.0 || cx > width ||
+           cy > height)
+    os << "principal point (" << cx << ", " << cy << ") lies outside the " << width << "x" << height
+       << " image";
   else
     for (double d : distortion)
       if (!std::isfinite(d)) os << "distortion coefficient is not finite";
@@ -20,7 +23,8 @@ bool PinholeRadtan::Check(std::string* why) const {
 }
 
 bool PinholeRadtan::HasDistortion() const {
-  return distortion[0] != 0.0 || distortion[1] != 0.0 || distortion[2] != 0.0 || distortion[3] != 0.0;
+  return distortion[0] != 0.0 || distortion[1] != 0.0 || distortion[2] != 0.0 ||
+         distortion[3] != 0.0;
 }
 
 Mat3 PinholeRadtan::K() const {

@@ -9,9 +9,11 @@
 
 namespace fsp {
 
-TableReader::TableReader(const std::string& path, std::string what) : path_(path), what_(std::move(what)) {
+TableReader::TableReader(const std::string& path, std::string what)
+    : path_(path), what_(std::move(what)) {
   if (!std::filesystem::exists(path)) throw InputError(path, 0, what_ + " not found");
-  if (std::filesystem::is_directory(path)) throw InputError(path, 0, "is a directory, expected a " + what_);
+  if (std::filesystem::is_directory(path))
+    throw InputError(path, 0, "is a directory, expected a " + what_);
   in_.open(path);
   if (!in_) throw InputError(path, 0, "cannot open " + what_);
 }
@@ -54,18 +56,23 @@ bool TableReader::NextRow(std::vector<std::string>* fields) {
   return false;
 }
 
-void TableReader::Fail(const std::string& what) const { throw InputError(path_, line_, what); }
+void TableReader::Fail(const std::string& what) const {
+  throw InputError(path_, line_, what);
+}
 
-void TableReader::ExpectColumns(const std::vector<std::string>& fields, size_t min, size_t max) const {
+void TableReader::ExpectColumns(const std::vector<std::string>& fields, size_t min,
+                                size_t max) const {
   if (fields.size() < min || fields.size() > max) {
-    Fail("expected " + (min == max ? std::to_string(min) : std::to_string(min) + " to " + std::to_string(max)) +
+    Fail("expected " +
+         (min == max ? std::to_string(min) : std::to_string(min) + " to " + std::to_string(max)) +
          " columns in " + what_ + ", found " + std::to_string(fields.size()));
   }
 }
 
 double TableReader::Double(const std::vector<std::string>& fields, size_t index, const char* name,
                            bool allow_nonfinite) const {
-  if (index >= fields.size()) Fail(std::string("missing column ") + std::to_string(index + 1) + " (" + name + ")");
+  if (index >= fields.size())
+    Fail(std::string("missing column ") + std::to_string(index + 1) + " (" + name + ")");
   const std::string& s = fields[index];
   char* end = nullptr;
   errno = 0;
@@ -79,8 +86,10 @@ double TableReader::Double(const std::vector<std::string>& fields, size_t index,
   return v;
 }
 
-int64_t TableReader::Int64(const std::vector<std::string>& fields, size_t index, const char* name) const {
-  if (index >= fields.size()) Fail(std::string("missing column ") + std::to_string(index + 1) + " (" + name + ")");
+int64_t TableReader::Int64(const std::vector<std::string>& fields, size_t index,
+                           const char* name) const {
+  if (index >= fields.size())
+    Fail(std::string("missing column ") + std::to_string(index + 1) + " (" + name + ")");
   const std::string& s = fields[index];
   char* end = nullptr;
   errno = 0;

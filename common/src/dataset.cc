@@ -16,9 +16,12 @@ namespace {
 // One implementation for every kind: the kinds differ only in how frames are listed and decoded.
 class RecordedSource : public Source {
  public:
-  RecordedSource(InputKind kind, Calibration calib, internal::FrameList frames, std::vector<ImuSample> imu,
-                 bool decode)
-      : kind_(kind), calib_(std::move(calib)), decoder_(std::move(frames.decoder)), imu_(std::move(imu)),
+  RecordedSource(InputKind kind, Calibration calib, internal::FrameList frames,
+                 std::vector<ImuSample> imu, bool decode)
+      : kind_(kind),
+        calib_(std::move(calib)),
+        decoder_(std::move(frames.decoder)),
+        imu_(std::move(imu)),
         decode_(decode) {
     frame_times_ = std::move(frames.t_ns);
     for (int64_t& t : frame_times_) t += calib_.time_offset_ns;
@@ -56,9 +59,10 @@ class RecordedSource : public Source {
     const PinholeRadtan& cam = calib_.camera;
     if (frame.image.cols != cam.width || frame.image.rows != cam.height) {
       throw InputError(frame.source, 0,
-                       "image size " + std::to_string(frame.image.cols) + "x" + std::to_string(frame.image.rows) +
-                           " differs from the calibration's " + std::to_string(cam.width) + "x" +
-                           std::to_string(cam.height) + " (" + calib_.source + ")");
+                       "image size " + std::to_string(frame.image.cols) + "x" +
+                           std::to_string(frame.image.rows) + " differs from the calibration's " +
+                           std::to_string(cam.width) + "x" + std::to_string(cam.height) + " (" +
+                           calib_.source + ")");
     }
     return frame;
   }
@@ -66,7 +70,8 @@ class RecordedSource : public Source {
  private:
   InputKind kind_;
   Calibration calib_;
-  std::unique_ptr<internal::FrameDecoder> decoder_;  // decoding advances a video reader: not logically const
+  std::unique_ptr<internal::FrameDecoder>
+      decoder_;  // decoding advances a video reader: not logically const
   std::vector<int64_t> frame_times_;
   std::vector<ImuSample> imu_;
   bool decode_ = true;
@@ -84,13 +89,14 @@ bool IsFile(const fs::path& p) {
 }
 
 // Fails unless frames and IMU share some time (a clock mix-up would otherwise run silently wrong).
-void CheckOverlap(const std::vector<int64_t>& frames, const std::vector<ImuSample>& imu, const std::string& imu_path,
-                  const Calibration& calib) {
+void CheckOverlap(const std::vector<int64_t>& frames, const std::vector<ImuSample>& imu,
+                  const std::string& imu_path, const Calibration& calib) {
   if (frames.back() < imu.front().t_ns || frames.front() > imu.back().t_ns) {
     throw InputError(imu_path, 0,
-                     "IMU samples span [" + std::to_string(imu.front().t_ns) + ", " + std::to_string(imu.back().t_ns) +
-                         "] ns but the frames span [" + std::to_string(frames.front()) + ", " +
-                         std::to_string(frames.back()) + "] ns: no overlap in time (check the clocks, time_offset_ns in " +
+                     "IMU samples span [" + std::to_string(imu.front().t_ns) + ", " +
+                         std::to_string(imu.back().t_ns) + "] ns but the frames span [" +
+                         std::to_string(frames.front()) + ", " + std::to_string(frames.back()) +
+                         "] ns: no overlap in time (check the clocks, time_offset_ns in " +
                          calib.source + " or --frame-times)");
   }
 }
@@ -98,8 +104,8 @@ void CheckOverlap(const std::vector<int64_t>& frames, const std::vector<ImuSampl
 std::unique_ptr<Source> Finish(InputKind kind, Calibration calib, internal::FrameList frames,
                                const std::string& imu_path, const SourceOptions& options) {
   std::vector<ImuSample> imu = ReadImuCsv(imu_path);
-  auto source = std::make_unique<RecordedSource>(kind, std::move(calib), std::move(frames), std::move(imu),
-                                                 options.decode_images);
+  auto source = std::make_unique<RecordedSource>(kind, std::move(calib), std::move(frames),
+                                                 std::move(imu), options.decode_images);
   CheckOverlap(source->frame_times(), source->imu(), imu_path, source->calibration());
   source->ReadFrame(0);  // the first image decodes and fits the calibration
   return source;
@@ -112,7 +118,8 @@ std::unique_ptr<Source> OpenEuroc(const fs::path& mav0, const SourceOptions& opt
     calib = ReadCalibration(options.calib);
   } else {
     const fs::path yaml = cam0 / "sensor.yaml";
-    if (!IsFile(yaml)) throw InputError(yaml.string(), 0, "camera calibration not found (or pass --calib FILE)");
+    if (!IsFile(yaml))
+      throw InputError(yaml.string(), 0, "camera calibration not found (or pass --calib FILE)");
     calib = ReadCalibration(yaml.string());
   }
   const fs::path imu_yaml = mav0 / "imu0" / "sensor.yaml";
@@ -123,7 +130,8 @@ std::unique_ptr<Source> OpenEuroc(const fs::path& mav0, const SourceOptions& opt
   const fs::path csv = cam0 / "data.csv";
   if (!IsFile(csv)) throw InputError(csv.string(), 0, "EuRoC image list not found");
   internal::FrameList frames = internal::ListImagesFromCsv(csv.string(), (cam0 / "data").string());
-  const std::string imu_path = !options.imu.empty() ? options.imu : (mav0 / "imu0" / "data.csv").string();
+  const std::string imu_path =
+      !options.imu.empty() ? options.imu : (mav0 / "imu0" / "data.csv").string();
   return Finish(InputKind::kEuroc, std::move(calib), std::move(frames), imu_path, options);
 }
 
@@ -144,7 +152,8 @@ std::unique_ptr<Source> OpenImageFolder(const fs::path& dir, const SourceOptions
     if (IsDir(dir / "data")) {
       TableReader probe(csv.string(), "image list");
       std::vector<std::string> f;
-      if (probe.NextRow(&f) && f.size() >= 2 && IsFile(dir / "data" / f[1])) image_dir = dir / "data";
+      if (probe.NextRow(&f) && f.size() >= 2 && IsFile(dir / "data" / f[1]))
+        image_dir = dir / "data";
     }
     frames = internal::ListImagesFromCsv(csv.string(), image_dir.string());
   } else {
@@ -164,17 +173,22 @@ std::unique_ptr<Source> OpenVideo(const fs::path& file, const SourceOptions& opt
 
 const char* ToString(InputKind kind) {
   switch (kind) {
-    case InputKind::kEuroc: return "euroc";
-    case InputKind::kVideo: return "video";
-    case InputKind::kImageFolder: return "image-folder";
+    case InputKind::kEuroc:
+      return "euroc";
+    case InputKind::kVideo:
+      return "video";
+    case InputKind::kImageFolder:
+      return "image-folder";
   }
   return "?";
 }
 
 bool SourceOptions::Check(std::string* why) const {
   std::string w;
-  if (input.empty()) w = "no input given";
-  else if (!frame_times.empty() && IsDir(input)) w = "--frame-times applies to a video input only";
+  if (input.empty())
+    w = "no input given";
+  else if (!frame_times.empty() && IsDir(input))
+    w = "--frame-times applies to a video input only";
   if (why) *why = w;
   return w.empty();
 }

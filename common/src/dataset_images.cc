@@ -46,7 +46,8 @@ cv::Mat ReadGreyImage(const std::string& path) {
   if (!fs::is_regular_file(path, ec)) throw InputError(path, 0, "image not found");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, 0, "cannot open image");
-  const std::vector<uchar> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::vector<uchar> bytes((std::istreambuf_iterator<char>(in)),
+                                 std::istreambuf_iterator<char>());
   if (bytes.empty()) throw InputError(path, 0, "image file is empty");
   cv::Mat image;
   std::string cv_error;
@@ -59,7 +60,7 @@ cv::Mat ReadGreyImage(const std::string& path) {
     }
   });
   if (image.empty()) {
-    const std::string detail = !printed.empty() ? FirstLineDetail(printed)
+    const std::string detail = !printed.empty()    ? FirstLineDetail(printed)
                                : !cv_error.empty() ? FirstLineDetail(cv_error)
                                                    : std::string(" (corrupt or not an image file)");
     throw InputError(path, 0, "image does not decode" + detail);
@@ -90,11 +91,13 @@ FrameList ListImagesFromCsv(const std::string& csv_path, const std::string& imag
     if (f[1].empty()) reader.Fail("column 2 (filename) is empty");
     const std::string path = (fs::path(image_dir) / f[1]).string();
     std::error_code ec;
-    if (!fs::is_regular_file(path, ec)) reader.Fail("image '" + f[1] + "' not found (" + path + ")");
+    if (!fs::is_regular_file(path, ec))
+      reader.Fail("image '" + f[1] + "' not found (" + path + ")");
     list.t_ns.push_back(t);
     paths.push_back(path);
   }
-  if (list.t_ns.empty()) throw InputError(csv_path, 0, "no frames listed (expected rows t_ns,filename)");
+  if (list.t_ns.empty())
+    throw InputError(csv_path, 0, "no frames listed (expected rows t_ns,filename)");
   list.decoder = std::make_unique<ImageFileDecoder>(std::move(paths));
   return list;
 }
@@ -111,27 +114,33 @@ FrameList ListImagesByName(const std::string& folder) {
     const std::string stem = e.path().stem().string();
     errno = 0;
     const long long t = std::strtoll(stem.c_str(), nullptr, 10);
-    const bool digits = !stem.empty() && errno != ERANGE &&
-                        std::all_of(stem.begin(), stem.end(), [](unsigned char c) { return std::isdigit(c); });
+    const bool digits =
+        !stem.empty() && errno != ERANGE &&
+        std::all_of(stem.begin(), stem.end(), [](unsigned char c) { return std::isdigit(c); });
     if (!digits) {
-      throw InputError(e.path().string(), 0,
-                       "image file name is not a nanosecond timestamp: name images <t_ns>.png or list them in " +
-                           (fs::path(folder) / "data.csv").string());
+      throw InputError(
+          e.path().string(), 0,
+          "image file name is not a nanosecond timestamp: name images <t_ns>.png or list them in " +
+              (fs::path(folder) / "data.csv").string());
     }
     entries.push_back({static_cast<int64_t>(t), e.path().string()});
   }
   if (ec) throw InputError(folder, 0, "cannot list folder: " + ec.message());
   if (entries.empty()) {
-    throw InputError(folder, 0, "no images found (expected files named <t_ns>.png/.jpg/.pgm/.bmp or a data.csv)");
+    throw InputError(
+        folder, 0,
+        "no images found (expected files named <t_ns>.png/.jpg/.pgm/.bmp or a data.csv)");
   }
-  std::sort(entries.begin(), entries.end(),
-            [](const Entry& a, const Entry& b) { return a.t != b.t ? a.t < b.t : a.path < b.path; });
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    return a.t != b.t ? a.t < b.t : a.path < b.path;
+  });
   FrameList list;
   std::vector<std::string> paths;
   for (size_t i = 0; i < entries.size(); ++i) {
     if (i > 0 && entries[i].t == entries[i - 1].t) {
-      throw InputError(folder, 0, "duplicate timestamp " + std::to_string(entries[i].t) + ": " +
-                                      entries[i - 1].path + " and " + entries[i].path);
+      throw InputError(folder, 0,
+                       "duplicate timestamp " + std::to_string(entries[i].t) + ": " +
+                           entries[i - 1].path + " and " + entries[i].path);
     }
     list.t_ns.push_back(entries[i].t);
     paths.push_back(entries[i].path);

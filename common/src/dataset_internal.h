@@ -13,7 +13,8 @@
 
 namespace fsp::internal {
 
-// Decodes frame `index` of a recording to CV_8UC1; throws InputError naming the image or video frame.
+// Decodes frame `index` of a recording to CV_8UC1; throws InputError naming the image or video
+// frame.
 class FrameDecoder {
  public:
   virtual ~FrameDecoder() = default;
@@ -35,9 +36,10 @@ FrameList ListImagesByName(const std::string& folder);
 // Frames of a video: times from its clock, or from FRAME_TIMES when not empty (count must match).
 FrameList ScanVideo(const std::string& video, const std::string& frame_times);
 
-// Runs FN with file descriptor 2 redirected to a temporary file and returns what third-party decoders
-// (libpng, libjpeg, FFmpeg) printed meanwhile: the library stays silent and can quote the text in its
-// error message. Captures are serialised by a mutex; output of other threads during FN is captured too.
+// Runs FN with file descriptor 2 redirected to a temporary file and returns what third-party
+// decoders (libpng, libjpeg, FFmpeg) printed meanwhile: the library stays silent and can quote the
+// text in its error message. Captures are serialised by a mutex; output of other threads during FN
+// is captured too.
 std::string CaptureStderr(const std::function<void()>& fn);
 // First line of TEXT, trimmed, prefixed by ": " (empty when TEXT is blank).
 std::string FirstLineDetail(const std::string& text);
@@ -45,7 +47,8 @@ std::string FirstLineDetail(const std::string& text);
 // Reads one image file as 8-bit grey; throws InputError "PATH: ..." when missing or not decodable.
 cv::Mat ReadGreyImage(const std::string& path);
 
-// Throws "FILE:LINE: duplicate timestamp" / "goes backwards" unless T > PREV (the row at PREV_LINE).
+// Throws "FILE:LINE: duplicate timestamp" / "goes backwards" unless T > PREV (the row at
+// PREV_LINE).
 void CheckIncreasing(const TableReader& reader, int64_t t, int64_t prev, int prev_line);
 
 }  // namespace fsp::internal

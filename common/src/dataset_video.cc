@@ -27,8 +27,9 @@ cv::VideoCapture OpenVideo(const std::string& path) {
   });
   if (!cap.isOpened()) {
     const std::string detail = !printed.empty() ? FirstLineDetail(printed)
-                               : !cv_error.empty() ? FirstLineDetail(cv_error)
-                                                   : std::string(" (not a video file or unsupported codec)");
+                               : !cv_error.empty()
+                                   ? FirstLineDetail(cv_error)
+                                   : std::string(" (not a video file or unsupported codec)");
     throw InputError(path, 0, "cannot open as a video" + detail);
   }
   return cap;
@@ -62,9 +63,12 @@ class VideoDecoder : public FrameDecoder {
       throw InputError(Name(failed), 0, "video frame does not decode" + FirstLineDetail(printed));
     }
     cv::Mat grey;
-    if (frame.channels() == 3) cv::cvtColor(frame, grey, cv::COLOR_BGR2GRAY);
-    else if (frame.channels() == 4) cv::cvtColor(frame, grey, cv::COLOR_BGRA2GRAY);
-    else grey = frame;
+    if (frame.channels() == 3)
+      cv::cvtColor(frame, grey, cv::COLOR_BGR2GRAY);
+    else if (frame.channels() == 4)
+      cv::cvtColor(frame, grey, cv::COLOR_BGRA2GRAY);
+    else
+      grey = frame;
     if (grey.type() != CV_8UC1) grey.convertTo(grey, CV_8U);
     return grey;
   }
@@ -96,35 +100,41 @@ std::vector<int64_t> ReadFrameTimes(const std::string& path) {
 FrameList ScanVideo(const std::string& video, const std::string& frame_times) {
   cv::VideoCapture cap = OpenVideo(video);
   const double fps = cap.get(cv::CAP_PROP_FPS);
-  // One pass over the packets (grab decodes but skips the colour conversion) for the count and clock.
+  // One pass over the packets (grab decodes but skips the colour conversion) for the count and
+  // clock.
   std::vector<double> msec;
   const std::string printed = CaptureStderr([&] {
     while (cap.grab()) msec.push_back(cap.get(cv::CAP_PROP_POS_MSEC));
   });
-  if (msec.empty()) throw InputError(video, 0, "video has no frames that decode" + FirstLineDetail(printed));
+  if (msec.empty())
+    throw InputError(video, 0, "video has no frames that decode" + FirstLineDetail(printed));
   const int n = static_cast<int>(msec.size());
 
   FrameList list;
   if (!frame_times.empty()) {
     list.t_ns = ReadFrameTimes(frame_times);
     if (static_cast<int>(list.t_ns.size()) != n) {
-      throw InputError(frame_times, 0, std::to_string(list.t_ns.size()) + " frame times but " + video + " has " +
-                                           std::to_string(n) + " frames");
+      throw InputError(frame_times, 0,
+                       std::to_string(list.t_ns.size()) + " frame times but " + video + " has " +
+                           std::to_string(n) + " frames");
     }
   } else {
     const bool fps_ok = fps > 0.0 && std::isfinite(fps);
-    bool clock_ok = true;        // strictly increasing
+    bool clock_ok = true;         // strictly increasing
     bool constant_rate = fps_ok;  // t_k = k / fps to the clock's resolution
     for (int i = 0; i < n; ++i) {
       const double ms = msec[static_cast<size_t>(i)];
-      // Video clocks have at best microsecond resolution: round there so 50 ms is exactly 50'000'000 ns.
+      // Video clocks have at best microsecond resolution: round there so 50 ms is exactly
+      // 50'000'000 ns.
       const int64_t t = std::isfinite(ms) ? std::llround(ms * 1e3) * 1000 : 0;
       if (!std::isfinite(ms) || (i > 0 && t <= list.t_ns.back())) clock_ok = false;
-      if (constant_rate && std::abs(static_cast<double>(t) - i * 1e9 / fps) > 2000.0) constant_rate = false;
+      if (constant_rate && std::abs(static_cast<double>(t) - i * 1e9 / fps) > 2000.0)
+        constant_rate = false;
       list.t_ns.push_back(t);
     }
     if (!clock_ok && !fps_ok) {
-      throw InputError(video, 0, "video has neither a usable clock nor a frame rate: pass --frame-times FILE");
+      throw InputError(
+          video, 0, "video has neither a usable clock nor a frame rate: pass --frame-times FILE");
     }
     if (!clock_ok || constant_rate) {
       // t_k = round(k * 1e9 / fps): exact nanoseconds for a constant-rate video (the renderer's own

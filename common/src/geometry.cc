@@ -12,7 +12,9 @@ Mat3 Skew(const Vec3& v) {
   return S;
 }
 
-Mat3 ExpSO3(const Vec3& phi) { return ExpQuat(phi).toRotationMatrix(); }
+Mat3 ExpSO3(const Vec3& phi) {
+  return ExpQuat(phi).toRotationMatrix();
+}
 
 Quat ExpQuat(const Vec3& phi) {
   const double theta = phi.norm();
@@ -32,14 +34,17 @@ Vec3 LogQuat(const Quat& q_in) {
   return theta / s * v;
 }
 
-Vec3 LogSO3(const Mat3& R) { return LogQuat(Quat(R)); }
+Vec3 LogSO3(const Mat3& R) {
+  return LogQuat(Quat(R));
+}
 
 Mat3 RightJacobianSO3(const Vec3& phi) {
   const double theta = phi.norm();
   const Mat3 W = Skew(phi);
   if (theta < 1e-5) return Mat3::Identity() - 0.5 * W + W * W / 6.0;
   const double t2 = theta * theta;
-  return Mat3::Identity() - (1.0 - std::cos(theta)) / t2 * W + (theta - std::sin(theta)) / (t2 * theta) * W * W;
+  return Mat3::Identity() - (1.0 - std::cos(theta)) / t2 * W +
+         (theta - std::sin(theta)) / (t2 * theta) * W * W;
 }
 
 Mat3 RightJacobianInvSO3(const Vec3& phi) {
@@ -51,10 +56,18 @@ Mat3 RightJacobianInvSO3(const Vec3& phi) {
          (1.0 / t2 - (1.0 + std::cos(theta)) / (2.0 * theta * std::sin(theta))) * W * W;
 }
 
-Mat3 RotX(double rad) { return Eigen::AngleAxisd(rad, Vec3::UnitX()).toRotationMatrix(); }
-Mat3 RotY(double rad) { return Eigen::AngleAxisd(rad, Vec3::UnitY()).toRotationMatrix(); }
-Mat3 RotZ(double rad) { return Eigen::AngleAxisd(rad, Vec3::UnitZ()).toRotationMatrix(); }
-Mat3 RotFromRpy(double roll, double pitch, double yaw) { return RotZ(yaw) * RotY(pitch) * RotX(roll); }
+Mat3 RotX(double rad) {
+  return Eigen::AngleAxisd(rad, Vec3::UnitX()).toRotationMatrix();
+}
+Mat3 RotY(double rad) {
+  return Eigen::AngleAxisd(rad, Vec3::UnitY()).toRotationMatrix();
+}
+Mat3 RotZ(double rad) {
+  return Eigen::AngleAxisd(rad, Vec3::UnitZ()).toRotationMatrix();
+}
+Mat3 RotFromRpy(double roll, double pitch, double yaw) {
+  return RotZ(yaw) * RotY(pitch) * RotX(roll);
+}
 
 Mat3 Orthonormalize(const Mat3& M) {
   Eigen::JacobiSVD<Mat3> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -66,7 +79,8 @@ Mat3 Orthonormalize(const Mat3& M) {
 Rigid3 Rigid3::FromMatrix(const Mat4& M) {
   const Mat3 A = M.topLeftCorner<3, 3>();
   const Mat3 R = Orthonormalize(A);
-  if (!A.allFinite() || (R - A).norm() > 1e-3 || (M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9) {
+  if (!A.allFinite() || (R - A).norm() > 1e-3 ||
+      (M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9) {
     throw std::invalid_argument("matrix is not a rigid transform (rotation block not orthonormal)");
   }
   return Rigid3(R, M.topRightCorner<3, 1>());

@@ -14,11 +14,12 @@ namespace internal {
 
 void CheckIncreasing(const TableReader& reader, int64_t t, int64_t prev, int prev_line) {
   if (t == prev) {
-    reader.Fail("duplicate timestamp " + std::to_string(t) + " (also on line " + std::to_string(prev_line) + ")");
+    reader.Fail("duplicate timestamp " + std::to_string(t) + " (also on line " +
+                std::to_string(prev_line) + ")");
   }
   if (t < prev) {
-    reader.Fail("timestamp " + std::to_string(t) + " goes backwards (line " + std::to_string(prev_line) +
-                " has " + std::to_string(prev) + ")");
+    reader.Fail("timestamp " + std::to_string(t) + " goes backwards (line " +
+                std::to_string(prev_line) + " has " + std::to_string(prev) + ")");
   }
 }
 
@@ -35,12 +36,14 @@ std::vector<ImuSample> ReadImuCsv(const std::string& path) {
     ImuSample s;
     s.t_ns = reader.Int64(f, 0, "t_ns");
     for (int i = 0; i < 3; ++i) s.gyro[i] = reader.Double(f, static_cast<size_t>(1 + i), kNames[i]);
-    for (int i = 0; i < 3; ++i) s.acc[i] = reader.Double(f, static_cast<size_t>(4 + i), kNames[3 + i]);
+    for (int i = 0; i < 3; ++i)
+      s.acc[i] = reader.Double(f, static_cast<size_t>(4 + i), kNames[3 + i]);
     if (!out.empty()) internal::CheckIncreasing(reader, s.t_ns, out.back().t_ns, prev_line);
     prev_line = reader.line();
     out.push_back(s);
   }
-  if (out.empty()) throw InputError(path, 0, "no IMU samples (expected rows t_ns,wx,wy,wz,ax,ay,az)");
+  if (out.empty())
+    throw InputError(path, 0, "no IMU samples (expected rows t_ns,wx,wy,wz,ax,ay,az)");
   return out;
 }
 

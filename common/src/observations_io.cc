@@ -21,7 +21,8 @@ std::vector<CornerRow> ReadCornerRows(const std::string& path) {
     row.object_id = static_cast<int>(reader.Int64(f, 1, "object_id"));
     static const char* kNames[8] = {"u1", "v1", "u2", "v2", "u3", "v3", "u4", "v4"};
     for (int j = 0; j < 4; ++j) {
-      row.corners[j] = Vec2(reader.Double(f, 2 + 2 * j, kNames[2 * j]), reader.Double(f, 3 + 2 * j, kNames[2 * j + 1]));
+      row.corners[j] = Vec2(reader.Double(f, 2 + 2 * j, kNames[2 * j]),
+                            reader.Double(f, 3 + 2 * j, kNames[2 * j + 1]));
     }
     if (f.size() == 11) {
       const int64_t flag = reader.Int64(f, 10, "fully_visible");

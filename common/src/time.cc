@@ -4,6 +4,8 @@
 
 namespace fsp {
 
-int64_t SecondsToNs(double s) { return static_cast<int64_t>(std::llround(s * 1e9)); }
+int64_t SecondsToNs(double s) {
+  return static_cast<int64_t>(std::llround(s * 1e9));
+}
 
 }  // namespace fsp

@@ -13,8 +13,8 @@ namespace fsp::internal {
 // A parsed YAML file that turns every problem into InputError "FILE:LINE: what".
 class YamlFile {
  public:
-  // Loads PATH. A first line starting with "%YAML" (OpenCV's "%YAML:1.0", which yaml-cpp rejects) is
-  // skipped; line numbers in messages still refer to the file as written.
+  // Loads PATH. A first line starting with "%YAML" (OpenCV's "%YAML:1.0", which yaml-cpp rejects)
+  // is skipped; line numbers in messages still refer to the file as written.
   explicit YamlFile(const std::string& path, const std::string& what = "YAML file");
 
   const YAML::Node& root() const { return root_; }
@@ -32,7 +32,8 @@ class YamlFile {
   std::string String(const YAML::Node& node, const std::string& name) const;
   // A sequence of exactly N finite numbers.
   std::vector<double> Doubles(const YAML::Node& node, const std::string& name, size_t n) const;
-  // A 4x4 matrix as a flat list of 16, a list of 4 rows of 4, or an OpenCV-style {rows, cols, data}.
+  // A 4x4 matrix as a flat list of 16, a list of 4 rows of 4, or an OpenCV-style {rows, cols,
+  // data}.
   Mat4 Matrix4(const YAML::Node& node, const std::string& name) const;
   // Matrix4 that must be a rigid transform.
   Rigid3 Transform(const YAML::Node& node, const std::string& name) const;

@@ -9,22 +9,30 @@ namespace fsp::eval {
 
 const char* ToString(AlignMode mode) {
   switch (mode) {
-    case AlignMode::kSe3: return "se3";
-    case AlignMode::kPosYaw: return "posyaw";
-    case AlignMode::kSim3: return "sim3";
+    case AlignMode::kSe3:
+      return "se3";
+    case AlignMode::kPosYaw:
+      return "posyaw";
+    case AlignMode::kSim3:
+      return "sim3";
   }
   return "?";
 }
 
 bool ParseAlignMode(const std::string& text, AlignMode* mode) {
-  if (text == "se3") *mode = AlignMode::kSe3;
-  else if (text == "posyaw") *mode = AlignMode::kPosYaw;
-  else if (text == "sim3") *mode = AlignMode::kSim3;
-  else return false;
+  if (text == "se3")
+    *mode = AlignMode::kSe3;
+  else if (text == "posyaw")
+    *mode = AlignMode::kPosYaw;
+  else if (text == "sim3")
+    *mode = AlignMode::kSim3;
+  else
+    return false;
   return true;
 }
 
-AlignResult AlignPoints(const std::vector<Vec3>& ref, const std::vector<Vec3>& est, AlignMode mode) {
+AlignResult AlignPoints(const std::vector<Vec3>& ref, const std::vector<Vec3>& est,
+                        AlignMode mode) {
   FSP_CHECK(ref.size() == est.size());
   AlignResult result;
   result.alignment.mode = mode;
@@ -44,7 +52,8 @@ AlignResult AlignPoints(const std::vector<Vec3>& ref, const std::vector<Vec3>& e
   if (mode == AlignMode::kPosYaw) {
     // 4-DoF: minimise Σ‖Rz(θ) x_i + t − y_i‖² with x_i, y_i the positions centred on their means
     // (t = μ_ref − Rz(θ) μ_est follows from ∂/∂t = 0). Then maximise Σ y_iᵀ Rz(θ) x_i =
-    //   cosθ Σ (x_x y_x + x_y y_y) + sinθ Σ (x_x y_y − x_y y_x) + Σ x_z y_z  =  A cosθ + B sinθ + C,
+    //   cosθ Σ (x_x y_x + x_y y_y) + sinθ Σ (x_x y_y − x_y y_x) + Σ x_z y_z  =  A cosθ + B sinθ +
+    //   C,
     // whose maximum is at θ = atan2(B, A) (closed form; roll and pitch are left untouched).
     double A = 0.0, B = 0.0, norm = 0.0;
     for (size_t i = 0; i < ref.size(); ++i) {
@@ -76,9 +85,11 @@ AlignResult AlignPoints(const std::vector<Vec3>& ref, const std::vector<Vec3>& e
   var_est /= n;
   Eigen::JacobiSVD<Mat3> svd(sigma, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Vec3 d = svd.singularValues();
-  // Rank < 2 (all points on a line or one point): the rotation about that line is free (evo refuses too).
+  // Rank < 2 (all points on a line or one point): the rotation about that line is free (evo refuses
+  // too).
   if (!(d(1) > 1e-12 * d(0)) || !(var_est > 0.0)) {
-    result.failure = "degenerate: the positions are collinear or identical (rank of the cross-covariance < 2)";
+    result.failure =
+        "degenerate: the positions are collinear or identical (rank of the cross-covariance < 2)";
     return result;
   }
   Mat3 S = Mat3::Identity();

@@ -30,8 +30,10 @@ bool LooksLikeEuroc(const std::string& path) {
   if (!reader.NextRow(&f) || f.empty()) return false;
   if (f.size() == 11 || f.size() == 14 || f.size() == 17) return true;
   const std::string& first = f[0];
-  if (f.size() != 8 || first.empty() || first.find_first_not_of("0123456789") != std::string::npos) return false;
-  return std::filesystem::path(path).extension() == ".csv" || std::strtod(first.c_str(), nullptr) > 1e12;
+  if (f.size() != 8 || first.empty() || first.find_first_not_of("0123456789") != std::string::npos)
+    return false;
+  return std::filesystem::path(path).extension() == ".csv" ||
+         std::strtod(first.c_str(), nullptr) > 1e12;
 }
 
 std::string Seconds(double s) {
@@ -83,7 +85,8 @@ bool TrajectoryOptions::Check(std::string* why) const {
   return true;
 }
 
-Association Associate(const Trajectory& ref, const Trajectory& est, const AssociationOptions& options) {
+Association Associate(const Trajectory& ref, const Trajectory& est,
+                      const AssociationOptions& options) {
   std::string why;
   FSP_CHECK(options.Check(&why));
   FSP_CHECK(ref.t_s.size() == ref.size() && est.t_s.size() == est.size());
@@ -99,8 +102,9 @@ Association Associate(const Trajectory& ref, const Trajectory& est, const Associ
   for (size_t i = 0; i < shorter.size(); ++i) {
     const double t = shorter.t_s[i];
     // argmin_k |long_s[k] − t| (first index on ties). long_s increases, so fl(|long_s[k] − t|) is
-    // non-increasing before the insertion point and non-decreasing after it: the minimum is at one of its
-    // two neighbours, and equal values to its left are scanned to pick the first index as numpy does.
+    // non-increasing before the insertion point and non-decreasing after it: the minimum is at one
+    // of its two neighbours, and equal values to its left are scanned to pick the first index as
+    // numpy does.
     const auto it = std::lower_bound(long_s.begin(), long_s.end(), t);
     size_t best = static_cast<size_t>(it - long_s.begin());
     if (best == long_s.size()) best = long_s.size() - 1;
@@ -129,8 +133,8 @@ TrajectoryMetrics EvaluateTrajectory(const Trajectory& ref, const Trajectory& es
     const bool overlap = est.t_s.front() + options.association.offset_s <= ref.t_s.back() &&
                          ref.t_s.front() <= est.t_s.back() + options.association.offset_s;
     std::ostringstream msg;
-    msg << names << ": only " << assoc.size() << " pose pairs within " << options.association.max_diff_s
-        << " s (need " << options.min_pairs << ")";
+    msg << names << ": only " << assoc.size() << " pose pairs within "
+        << options.association.max_diff_s << " s (need " << options.min_pairs << ")";
     if (!overlap) {
       msg << "; they do not overlap in time (reference " << Seconds(ref.t_s.front()) << ".."
           << Seconds(ref.t_s.back()) << " s, estimate " << Seconds(est.t_s.front()) << ".."
@@ -149,7 +153,9 @@ TrajectoryMetrics EvaluateTrajectory(const Trajectory& ref, const Trajectory& es
     p_est[k] = est.T_W_B[assoc.est[k]].translation();
   }
   const AlignResult aligned = AlignPoints(p_ref, p_est, options.align);
-  if (!aligned.ok()) throw InputError(names + ": cannot align (" + ToString(options.align) + "): " + aligned.failure);
+  if (!aligned.ok())
+    throw InputError(names + ": cannot align (" + ToString(options.align) +
+                     "): " + aligned.failure);
   m.alignment = aligned.alignment;
   if (options.align == AlignMode::kSim3) m.scale_error = std::abs(m.alignment.scale - 1.0);
 
@@ -159,7 +165,8 @@ TrajectoryMetrics EvaluateTrajectory(const Trajectory& ref, const Trajectory& es
   m.ate = ComputeStats(std::move(ate));
 
   // RPE, Δ = 1 associated pair: E_k = (Q_k⁻¹ Q_{k+1})⁻¹ (P_k⁻¹ P_{k+1}) with P the aligned estimate
-  // (P = (R R_est, s R p_est + t), so only s matters); errors ‖trans(E_k)‖ [m] and |angle(rot(E_k))| [deg].
+  // (P = (R R_est, s R p_est + t), so only s matters); errors ‖trans(E_k)‖ [m] and
+  // |angle(rot(E_k))| [deg].
   std::vector<double> rpe_t, rpe_r;
   for (size_t k = 0; k + 1 < m.pairs; ++k) {
     const Rigid3 Q_rel = ref.T_W_B[assoc.ref[k]].Inverse() * ref.T_W_B[assoc.ref[k + 1]];

@@ -30,14 +30,15 @@ ImuSample IdealImu(const Trajectory& trajectory, int64_t t_ns) {
   return sample;
 }
 
-ImuSequence SynthesizeImu(const Trajectory& trajectory, int64_t t_end_ns, const ImuSynthOptions& options,
-                          std::mt19937* rng) {
+ImuSequence SynthesizeImu(const Trajectory& trajectory, int64_t t_end_ns,
+                          const ImuSynthOptions& options, std::mt19937* rng) {
   std::string why;
   FSP_CHECK(options.Check(&why));
   FSP_CHECK(!options.add_noise || rng != nullptr);
   const double rate = options.noise.rate_hz;
   const double dt = 1.0 / rate;
-  // Discrete standard deviations: white noise density * sqrt(rate), bias step random_walk * sqrt(dt).
+  // Discrete standard deviations: white noise density * sqrt(rate), bias step random_walk *
+  // sqrt(dt).
   const double sigma_g = options.noise.gyroscope_noise_density * std::sqrt(rate);
   const double sigma_a = options.noise.accelerometer_noise_density * std::sqrt(rate);
   const double sigma_bg = options.noise.gyroscope_random_walk * std::sqrt(dt);

@@ -16,11 +16,14 @@ namespace fsp::sim {
 
 bool RenderOptions::Check(std::string* why) const {
   std::ostringstream os;
-  if (supersampling < 1 || supersampling > 8) os << "supersampling " << supersampling << " is not in 1..8";
-  else if (!(ambient >= 0.0 && ambient <= 1.0)) os << "ambient " << ambient << " is not in [0, 1]";
+  if (supersampling < 1 || supersampling > 8)
+    os << "supersampling " << supersampling << " is not in 1..8";
+  else if (!(ambient >= 0.0 && ambient <= 1.0))
+    os << "ambient " << ambient << " is not in [0, 1]";
   else if (motion_blur_samples < 1 || motion_blur_samples > 64)
     os << "motion_blur_samples " << motion_blur_samples << " is not in 1..64";
-  else if (!(background >= 0.0 && background <= 1.0)) os << "background " << background << " is not in [0, 1]";
+  else if (!(background >= 0.0 && background <= 1.0))
+    os << "background " << background << " is not in [0, 1]";
   else if (!(room_texels_per_m > 0.0 && room_texels_per_m <= 5000.0))
     os << "room_texels_per_m " << room_texels_per_m << " is not in (0, 5000]";
   else if (!(object_texels_per_m > 0.0 && object_texels_per_m <= 5000.0))
@@ -33,8 +36,8 @@ bool RenderOptions::Check(std::string* why) const {
 
 namespace {
 
-constexpr int kTile = 16;                 // tile side in pixels (culling granularity)
-constexpr double kNearZ = 1e-5;           // quads are clipped to z_C >= this (metres) for culling
+constexpr int kTile = 16;        // tile side in pixels (culling granularity)
+constexpr double kNearZ = 1e-5;  // quads are clipped to z_C >= this (metres) for culling
 constexpr float kRoomDepthBias = 1.0f + 1e-5f;  // room surfaces lose depth ties against objects
 
 struct Texture {
@@ -56,8 +59,9 @@ struct Texture {
   }
 };
 
-// A quad as rendered, in W: corners origin + a u + b v, unit normal n = u x v / |u x v|, and the dual
-// basis du, dv (du.u = 1, du.v = 0, du.n = 0; likewise dv) so that a = du.(X - origin), b = dv.(X - origin).
+// A quad as rendered, in W: corners origin + a u + b v, unit normal n = u x v / |u x v|, and the
+// dual basis du, dv (du.u = 1, du.v = 0, du.n = 0; likewise dv) so that a = du.(X - origin), b =
+// dv.(X - origin).
 struct Geometry {
   Vec3 origin, u, v, n, du, dv;
   int id = -1;
@@ -87,10 +91,12 @@ Geometry MakeGeometry(const TexturedQuad& q) {
   return g;
 }
 
-// Per-frame quad in C, single precision for the per-ray loop. Ray X = t r with r = (x, y, 1), so t = z_C:
+// Per-frame quad in C, single precision for the per-ray loop. Ray X = t r with r = (x, y, 1), so t
+// = z_C:
 //   den = n.r,  t = c / den with c = n.o  (plane n.X = c),
 //   a = t (du.r) - du.o,  b = t (dv.r) - dv.o,
-//   shade = ambient + (1 - ambient) |n.r| / |r|   (Lambert-like |cos| between normal and viewing ray).
+//   shade = ambient + (1 - ambient) |n.r| / |r|   (Lambert-like |cos| between normal and viewing
+//   ray).
 struct FrameQuad {
   float nx, ny, nz, c;
   float ux, uy, uz, uo;
@@ -112,10 +118,11 @@ struct Renderer::Impl {
   std::vector<Geometry> geometry;
   std::vector<Texture> textures;
 
-  int samples = 1;             // rays per pixel (supersampling^2)
-  std::vector<float> rays;     // per pixel (row-major) and sample: x, y, 1/|r| (normalised coordinates)
+  int samples = 1;  // rays per pixel (supersampling^2)
+  std::vector<float>
+      rays;  // per pixel (row-major) and sample: x, y, 1/|r| (normalised coordinates)
   int tiles_x = 0, tiles_y = 0;
-  std::vector<float> tile_box; // per tile: xmin, xmax, ymin, ymax of its rays (normalised), padded
+  std::vector<float> tile_box;  // per tile: xmin, xmax, ymin, ymax of its rays (normalised), padded
 
   void BuildRayTable();
   // One pose's quads in C and, per tile, the indices of the quads that may cover it.
@@ -124,15 +131,17 @@ struct Renderer::Impl {
     std::vector<std::vector<uint16_t>> tiles;
   };
   PoseSetup Setup(const Rigid3& T_W_C) const;
-  // Renders into accum (CV_32F, grey in [0, 1]); several poses share each pixel's rays (motion blur).
+  // Renders into accum (CV_32F, grey in [0, 1]); several poses share each pixel's rays (motion
+  // blur).
   void RenderInto(const std::vector<Rigid3>& poses, cv::Mat* accum) const;
 };
 
 void Renderer::Impl::BuildRayTable() {
   const int n = options.supersampling;
   samples = n * n;
-  // Sample offsets (pixel units, relative to the centre): an n x n grid sheared so that all n^2 samples
-  // have distinct x and distinct y ("n-rooks"), which resolves near-axis-aligned edges to 1/n^2 px.
+  // Sample offsets (pixel units, relative to the centre): an n x n grid sheared so that all n^2
+  // samples have distinct x and distinct y ("n-rooks"), which resolves near-axis-aligned edges to
+  // 1/n^2 px.
   std::vector<Vec2d> offsets;
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i)
@@ -169,7 +178,9 @@ void Renderer::Impl::BuildRayTable() {
             y1 = std::max(y1, r[1]);
           }
       // Pad for the single-precision ray-quad test near a tile's boundary.
-      const float pad = 1e-5f * (1.f + std::max(std::abs(x0), std::max(std::abs(x1), std::max(std::abs(y0), std::abs(y1)))));
+      const float pad =
+          1e-5f * (1.f + std::max(std::abs(x0),
+                                  std::max(std::abs(x1), std::max(std::abs(y0), std::abs(y1)))));
       float* b = &tile_box[(static_cast<size_t>(ty) * tiles_x + tx) * 4];
       b[0] = x0 - pad;
       b[1] = x1 + pad;
@@ -180,9 +191,10 @@ void Renderer::Impl::BuildRayTable() {
 
 namespace {
 
-// The quad's visible outline in normalised image coordinates: its corners in C clipped to z >= kNearZ
-// (Sutherland-Hodgman against one plane), then projected (x/z, y/z). The central projection of a convex
-// planar polygon in front of the camera is convex. Empty when the quad is entirely behind the camera.
+// The quad's visible outline in normalised image coordinates: its corners in C clipped to z >=
+// kNearZ (Sutherland-Hodgman against one plane), then projected (x/z, y/z). The central projection
+// of a convex planar polygon in front of the camera is convex. Empty when the quad is entirely
+// behind the camera.
 std::vector<Vec2d> ProjectedOutline(const Geometry& g, const Rigid3& T_C_W) {
   const Vec3 P[4] = {T_C_W * g.origin, T_C_W * (g.origin + g.u), T_C_W * (g.origin + g.u + g.v),
                      T_C_W * (g.origin + g.v)};
@@ -205,10 +217,11 @@ std::vector<Vec2d> ProjectedOutline(const Geometry& g, const Rigid3& T_C_W) {
   return out;
 }
 
-// Whether the convex polygon (either orientation) may overlap the box [x0, x1] x [y0, y1]: separating
-// axis test over the box's axes (bounding boxes) and the polygon's edge normals. Conservative.
-bool PolygonOverlapsBox(const std::vector<Vec2d>& poly, double orient, double x0, double x1, double y0,
-                        double y1) {
+// Whether the convex polygon (either orientation) may overlap the box [x0, x1] x [y0, y1]:
+// separating axis test over the box's axes (bounding boxes) and the polygon's edge normals.
+// Conservative.
+bool PolygonOverlapsBox(const std::vector<Vec2d>& poly, double orient, double x0, double x1,
+                        double y0, double y1) {
   const size_t n = poly.size();
   for (size_t i = 0; i < n; ++i) {
     const Vec2d& p = poly[i];
@@ -289,10 +302,10 @@ void Renderer::Impl::RenderInto(const std::vector<Rigid3>& poses, cv::Mat* accum
   const float diffuse = 1.f - ambient;
   const float background = static_cast<float>(options.background);
   // Poses share the rays: slot j = 0 .. P S - 1 of a pixel uses sub-pixel sample j mod S and pose
-  // (j + rot(px, py)) mod N. P = N / gcd(S, N) passes make P S a multiple of N, so every pose gets the
-  // same number of rays in every pixel; the pseudo-random rotation decorrelates pose and sub-pixel
-  // offset across neighbouring pixels. Cost: P renders instead of N. With one pose this is plain
-  // supersampling.
+  // (j + rot(px, py)) mod N. P = N / gcd(S, N) passes make P S a multiple of N, so every pose gets
+  // the same number of rays in every pixel; the pseudo-random rotation decorrelates pose and
+  // sub-pixel offset across neighbouring pixels. Cost: P renders instead of N. With one pose this
+  // is plain supersampling.
   const int N = static_cast<int>(poses.size());
   const int S = samples;
   const int P = N / std::gcd(S, N);
@@ -318,7 +331,8 @@ void Renderer::Impl::RenderInto(const std::vector<Rigid3>& poses, cv::Mat* accum
           float sum = 0.f;
           // Per-pixel rotation of the pose sequence from an integer hash of (px, py), so that the
           // pose/sub-pixel pairing does not form a visible pattern.
-          uint32_t h = static_cast<uint32_t>(px) * 0x9E3779B1u ^ static_cast<uint32_t>(py) * 0x85EBCA77u;
+          uint32_t h =
+              static_cast<uint32_t>(px) * 0x9E3779B1u ^ static_cast<uint32_t>(py) * 0x85EBCA77u;
           h ^= h >> 15;
           h *= 0x2C1B3C6Du;
           h ^= h >> 12;
@@ -359,7 +373,8 @@ void Renderer::Impl::RenderInto(const std::vector<Rigid3>& poses, cv::Mat* accum
     }
 }
 
-Renderer::Renderer(const PinholeRadtan& camera, std::vector<TexturedQuad> quads, const RenderOptions& options)
+Renderer::Renderer(const PinholeRadtan& camera, std::vector<TexturedQuad> quads,
+                   const RenderOptions& options)
     : impl_(std::make_unique<Impl>()) {
   std::string why;
   FSP_CHECK(camera.Check(&why));
@@ -370,7 +385,8 @@ Renderer::Renderer(const PinholeRadtan& camera, std::vector<TexturedQuad> quads,
   impl_->quads = std::move(quads);
   for (const TexturedQuad& q : impl_->quads) {
     const double area = q.axis_u_W.cross(q.axis_v_W).norm();
-    if (!(area > 1e-12) || !q.origin_W.allFinite() || !q.axis_u_W.allFinite() || !q.axis_v_W.allFinite())
+    if (!(area > 1e-12) || !q.origin_W.allFinite() || !q.axis_u_W.allFinite() ||
+        !q.axis_v_W.allFinite())
       throw InputError("quad " + std::to_string(q.id) + " has zero area or non-finite corners");
     impl_->geometry.push_back(MakeGeometry(q));
     const double density = q.id < 0 ? options.room_texels_per_m : options.object_texels_per_m;
@@ -392,7 +408,9 @@ Renderer::~Renderer() = default;
 Renderer::Renderer(Renderer&&) noexcept = default;
 Renderer& Renderer::operator=(Renderer&&) noexcept = default;
 
-const std::vector<TexturedQuad>& Renderer::quads() const { return impl_->quads; }
+const std::vector<TexturedQuad>& Renderer::quads() const {
+  return impl_->quads;
+}
 
 cv::Mat Renderer::Render(const Rigid3& T_W_C) const {
   cv::Mat accum(impl_->camera.height, impl_->camera.width, CV_32FC1);
@@ -418,7 +436,8 @@ bool Renderer::PointVisible(const Rigid3& T_W_C, const Vec3& p_W, int quad_id, d
   if ((T_W_C.Inverse() * p_W).z() <= 0.0) return false;
   Vec3 p = p_W;
   if (quad_id >= 0) {
-    // Nudge a point on the quad's edge towards its centre so that the ray surely hits the quad itself.
+    // Nudge a point on the quad's edge towards its centre so that the ray surely hits the quad
+    // itself.
     for (const TexturedQuad& q : impl_->quads)
       if (q.id == quad_id) {
         const Vec3 centre = q.origin_W + 0.5 * (q.axis_u_W + q.axis_v_W);

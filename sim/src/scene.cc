@@ -18,7 +18,8 @@ namespace {
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 constexpr int kTag36h11Codes = 587;  // tag36h11 has codes 0..586
 
-// Line-numbered access to the scene's YAML tree: every problem becomes InputError "FILE:LINE: what".
+// Line-numbered access to the scene's YAML tree: every problem becomes InputError "FILE:LINE:
+// what".
 class Reader {
  public:
   explicit Reader(std::string name) : name_(std::move(name)) {}
@@ -30,10 +31,13 @@ class Reader {
   [[noreturn]] void Fail(const YAML::Node& node, const std::string& what) const {
     throw InputError(name_, Line(node), what);
   }
-  [[noreturn]] void Fail(int line, const std::string& what) const { throw InputError(name_, line, what); }
+  [[noreturn]] void Fail(int line, const std::string& what) const {
+    throw InputError(name_, line, what);
+  }
 
   // MAP must be a map whose keys are all in ALLOWED; WHERE names it in messages ("camera").
-  void CheckMap(const YAML::Node& map, const std::string& where, const std::set<std::string>& allowed) const {
+  void CheckMap(const YAML::Node& map, const std::string& where,
+                const std::set<std::string>& allowed) const {
     if (!map.IsMap()) Fail(map, where + " must be a map of keys");
     for (auto it = map.begin(); it != map.end(); ++it) {
       const std::string key = it->first.Scalar();
@@ -44,7 +48,8 @@ class Reader {
       }
     }
   }
-  YAML::Node Require(const YAML::Node& map, const std::string& key, const std::string& where) const {
+  YAML::Node Require(const YAML::Node& map, const std::string& key,
+                     const std::string& where) const {
     const YAML::Node node = map[key];
     if (!node) Fail(map, "missing field '" + key + "' in " + where);
     return node;
@@ -77,7 +82,8 @@ class Reader {
       Fail(node, what + " must be a list of " + std::to_string(n) + " numbers");
     }
     std::vector<double> out;
-    for (size_t i = 0; i < n; ++i) out.push_back(Double(node[i], what + "[" + std::to_string(i) + "]"));
+    for (size_t i = 0; i < n; ++i)
+      out.push_back(Double(node[i], what + "[" + std::to_string(i) + "]"));
     return out;
   }
   Vec3 Vector3(const YAML::Node& node, const std::string& what) const {
@@ -92,17 +98,19 @@ class Reader {
 };
 
 // Optional number: MAP[key] if present, else FALLBACK.
-double OptionalDouble(const Reader& r, const YAML::Node& map, const std::string& key, const std::string& where,
-                      double fallback) {
+double OptionalDouble(const Reader& r, const YAML::Node& map, const std::string& key,
+                      const std::string& where, double fallback) {
   const YAML::Node node = map[key];
   return node ? r.Double(node, where + "." + key) : fallback;
 }
 
 bool ParseTexture(const std::string& name, TextureKind* kind) {
   static const std::pair<const char*, TextureKind> kNames[] = {
-      {"wall", TextureKind::kWall},     {"floor", TextureKind::kFloor},   {"ceiling", TextureKind::kCeiling},
-      {"wood", TextureKind::kWood},     {"glass", TextureKind::kGlass},   {"poster", TextureKind::kPoster},
-      {"cabinet", TextureKind::kCabinet}, {"tag", TextureKind::kTag},     {"plain", TextureKind::kPlain}};
+      {"wall", TextureKind::kWall},       {"floor", TextureKind::kFloor},
+      {"ceiling", TextureKind::kCeiling}, {"wood", TextureKind::kWood},
+      {"glass", TextureKind::kGlass},     {"poster", TextureKind::kPoster},
+      {"cabinet", TextureKind::kCabinet}, {"tag", TextureKind::kTag},
+      {"plain", TextureKind::kPlain}};
   for (const auto& [n, k] : kNames) {
     if (name == n) {
       *kind = k;
@@ -114,12 +122,18 @@ bool ParseTexture(const std::string& name, TextureKind* kind) {
 
 TextureKind DefaultTexture(ObjectClass c) {
   switch (c) {
-    case ObjectClass::kDoor: return TextureKind::kWood;
-    case ObjectClass::kWindow: return TextureKind::kGlass;
-    case ObjectClass::kCabinet: return TextureKind::kCabinet;
-    case ObjectClass::kPoster: return TextureKind::kPoster;
-    case ObjectClass::kTag: return TextureKind::kTag;
-    case ObjectClass::kUnknown: break;
+    case ObjectClass::kDoor:
+      return TextureKind::kWood;
+    case ObjectClass::kWindow:
+      return TextureKind::kGlass;
+    case ObjectClass::kCabinet:
+      return TextureKind::kCabinet;
+    case ObjectClass::kPoster:
+      return TextureKind::kPoster;
+    case ObjectClass::kTag:
+      return TextureKind::kTag;
+    case ObjectClass::kUnknown:
+      break;
   }
   return TextureKind::kPlain;
 }
@@ -130,11 +144,13 @@ std::string Fmt(double v) {
   return s.str();
 }
 
-// Validates four corners as a rectangle and snaps them to an exact one (keeping s1, s2 and the height):
-//   e1 = s2 - s1 (width), e3 = s4 - s1 (height); requires |e1|, |e3| > 1 mm, |cos(e1, e3)| < 1e-3, and s3
-//   within 1e-3 (relative to the size) of s1 + e1 + e3, out of the plane (non-planar) and in it.
-std::array<Vec3, 4> CheckRectangle(const Reader& r, const YAML::Node& node, const std::string& where,
-                                   const std::array<Vec3, 4>& s) {
+// Validates four corners as a rectangle and snaps them to an exact one (keeping s1, s2 and the
+// height):
+//   e1 = s2 - s1 (width), e3 = s4 - s1 (height); requires |e1|, |e3| > 1 mm, |cos(e1, e3)| < 1e-3,
+//   and s3 within 1e-3 (relative to the size) of s1 + e1 + e3, out of the plane (non-planar) and in
+//   it.
+std::array<Vec3, 4> CheckRectangle(const Reader& r, const YAML::Node& node,
+                                   const std::string& where, const std::array<Vec3, 4>& s) {
   const Vec3 e1 = s[1] - s[0], e3 = s[3] - s[0];
   const double w = e1.norm(), h = e3.norm();
   if (w < 1e-3 || h < 1e-3 || e1.cross(e3).norm() < 1e-6) {
@@ -164,7 +180,8 @@ std::array<Vec3, 4> CheckRectangle(const Reader& r, const YAML::Node& node, cons
 SceneObject ParseObject(const Reader& r, const YAML::Node& node, size_t index) {
   const std::string where = "objects[" + std::to_string(index) + "]";
   r.CheckMap(node, where,
-             {"id", "class", "corners", "position", "rpy_deg", "width", "height", "texture", "tag_id", "seed"});
+             {"id", "class", "corners", "position", "rpy_deg", "width", "height", "texture",
+              "tag_id", "seed"});
   SceneObject obj;
   obj.line = r.Line(node);
   obj.id = r.Int(r.Require(node, "id", where), where + ".id");
@@ -173,7 +190,8 @@ SceneObject ParseObject(const Reader& r, const YAML::Node& node, size_t index) {
 
   const YAML::Node cls = r.Require(node, "class", label);
   obj.class_name = r.String(cls, label + ".class");
-  static const std::set<std::string> kClasses = {"door", "window", "cabinet", "poster", "painting", "tag"};
+  static const std::set<std::string> kClasses = {"door",   "window",   "cabinet",
+                                                 "poster", "painting", "tag"};
   if (kClasses.count(obj.class_name) == 0 || !ParseObjectClass(obj.class_name, &obj.object_class)) {
     r.Fail(cls, label + ": unknown class '" + obj.class_name +
                     "' (allowed: door, window, cabinet, poster, painting, tag)");
@@ -181,23 +199,29 @@ SceneObject ParseObject(const Reader& r, const YAML::Node& node, size_t index) {
 
   if (node["corners"]) {
     for (const char* key : {"position", "rpy_deg", "width", "height"}) {
-      if (node[key]) r.Fail(node[key], label + ": give either corners or position/rpy_deg/width/height, not both");
+      if (node[key])
+        r.Fail(node[key],
+               label + ": give either corners or position/rpy_deg/width/height, not both");
     }
     const YAML::Node corners = node["corners"];
-    if (!corners.IsSequence() || corners.size() != 4) r.Fail(corners, label + ".corners must be 4 points [x, y, z]");
+    if (!corners.IsSequence() || corners.size() != 4)
+      r.Fail(corners, label + ".corners must be 4 points [x, y, z]");
     std::array<Vec3, 4> s;
-    for (size_t j = 0; j < 4; ++j) s[j] = r.Vector3(corners[j], label + ".corners[" + std::to_string(j) + "]");
+    for (size_t j = 0; j < 4; ++j)
+      s[j] = r.Vector3(corners[j], label + ".corners[" + std::to_string(j) + "]");
     obj.corners_W = CheckRectangle(r, corners, label, s);
   } else {
     if (!node["position"]) {
-      r.Fail(node, "missing field 'corners' or 'position' (with rpy_deg, width, height) in " + label);
+      r.Fail(node,
+             "missing field 'corners' or 'position' (with rpy_deg, width, height) in " + label);
     }
     const Vec3 s1 = r.Vector3(node["position"], label + ".position");
     const Vec3 rpy = r.Vector3(r.Require(node, "rpy_deg", label), label + ".rpy_deg") * kDegToRad;
     const double w = r.Double(r.Require(node, "width", label), label + ".width");
     const double h = r.Double(r.Require(node, "height", label), label + ".height");
     if (w < 1e-3 || h < 1e-3) {
-      r.Fail(node, label + ": zero-area rectangle (width " + Fmt(w) + " m, height " + Fmt(h) + " m)");
+      r.Fail(node,
+             label + ": zero-area rectangle (width " + Fmt(w) + " m, height " + Fmt(h) + " m)");
     }
     // R_W_O = Rz(yaw) Ry(pitch) Rx(roll); s_j = s1 + R_W_O * (0|w, 0|h, 0).
     const Mat3 R_W_O = RotFromRpy(rpy[0], rpy[1], rpy[2]);
@@ -209,15 +233,18 @@ SceneObject ParseObject(const Reader& r, const YAML::Node& node, size_t index) {
   if (const YAML::Node tex = node["texture"]) {
     const std::string name = r.String(tex, label + ".texture");
     if (!ParseTexture(name, &obj.texture)) {
-      r.Fail(tex, label + ": unknown texture '" + name +
-                      "' (allowed: wall, floor, ceiling, wood, glass, poster, cabinet, tag, plain)");
+      r.Fail(tex,
+             label + ": unknown texture '" + name +
+                 "' (allowed: wall, floor, ceiling, wood, glass, poster, cabinet, tag, plain)");
     }
   }
   if (const YAML::Node tag = node["tag_id"]) {
-    if (obj.texture != TextureKind::kTag) r.Fail(tag, label + ": tag_id is only for the tag texture/class");
+    if (obj.texture != TextureKind::kTag)
+      r.Fail(tag, label + ": tag_id is only for the tag texture/class");
     obj.tag_id = r.Int(tag, label + ".tag_id");
     if (obj.tag_id < 0 || obj.tag_id >= kTag36h11Codes) {
-      r.Fail(tag, label + ".tag_id must be in 0.." + std::to_string(kTag36h11Codes - 1) + " (tag36h11)");
+      r.Fail(tag,
+             label + ".tag_id must be in 0.." + std::to_string(kTag36h11Codes - 1) + " (tag36h11)");
     }
   } else if (obj.texture == TextureKind::kTag) {
     r.Fail(node, "missing field 'tag_id' in " + label + " (a tag needs its tag36h11 code)");
@@ -244,9 +271,7 @@ Rigid3 SceneObject::T_W_O() const {
 Rigid3 DefaultCameraMount() {
   // Columns: camera axes in B. x_C = -y_B, y_C = -z_B, z_C = x_B.
   Mat3 R_B_C;
-  R_B_C << 0, 0, 1,
-          -1, 0, 0,
-           0, -1, 0;
+  R_B_C << 0, 0, 1, -1, 0, 0, 0, -1, 0;
   return Rigid3(R_B_C, Vec3::Zero());
 }
 
@@ -260,7 +285,8 @@ Calibration Scene::MakeCalibration() const {
   return calib;
 }
 
-Scene ParseScene(const std::string& yaml_text, const std::string& name, const std::string& base_dir) {
+Scene ParseScene(const std::string& yaml_text, const std::string& name,
+                 const std::string& base_dir) {
   const Reader r(name);
   YAML::Node root;
   try {
@@ -268,9 +294,11 @@ Scene ParseScene(const std::string& yaml_text, const std::string& name, const st
   } catch (const YAML::ParserException& e) {
     throw InputError(name, e.mark.line >= 0 ? e.mark.line + 1 : 0, "YAML syntax: " + e.msg);
   }
-  if (!root.IsMap()) throw InputError(name, 0, "a scene file must be a YAML map (camera, objects, trajectory, ...)");
-  r.CheckMap(root, "the scene",
-             {"camera", "T_B_C", "imu", "room", "objects", "trajectory", "noise", "duration_s", "render"});
+  if (!root.IsMap())
+    throw InputError(name, 0, "a scene file must be a YAML map (camera, objects, trajectory, ...)");
+  r.CheckMap(
+      root, "the scene",
+      {"camera", "T_B_C", "imu", "room", "objects", "trajectory", "noise", "duration_s", "render"});
   auto require_top = [&](const std::string& key) {
     const YAML::Node node = root[key];
     if (!node) throw InputError(name, 0, "missing field '" + key + "'");
@@ -306,7 +334,8 @@ Scene ParseScene(const std::string& yaml_text, const std::string& name, const st
     const std::vector<double> v = r.Doubles(t, "T_B_C (row-major 4x4)", 16);
     Mat4 M;
     for (int i = 0; i < 16; ++i) M(i / 4, i % 4) = v[i];
-    if ((M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9) r.Fail(t, "T_B_C: last row must be 0 0 0 1");
+    if ((M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9)
+      r.Fail(t, "T_B_C: last row must be 0 0 0 1");
     try {
       scene.T_B_C = Rigid3::FromMatrix(M);
     } catch (const std::exception& e) {
@@ -317,18 +346,23 @@ Scene ParseScene(const std::string& yaml_text, const std::string& name, const st
   // imu
   if (const YAML::Node imu = root["imu"]) {
     r.CheckMap(imu, "imu",
-               {"rate_hz", "gyroscope_noise_density", "accelerometer_noise_density", "gyroscope_random_walk",
-                "accelerometer_random_walk", "gyroscope_bias", "accelerometer_bias"});
+               {"rate_hz", "gyroscope_noise_density", "accelerometer_noise_density",
+                "gyroscope_random_walk", "accelerometer_random_walk", "gyroscope_bias",
+                "accelerometer_bias"});
     ImuNoise& n = scene.imu;
     n.rate_hz = OptionalDouble(r, imu, "rate_hz", "imu", n.rate_hz);
-    n.gyroscope_noise_density = OptionalDouble(r, imu, "gyroscope_noise_density", "imu", n.gyroscope_noise_density);
+    n.gyroscope_noise_density =
+        OptionalDouble(r, imu, "gyroscope_noise_density", "imu", n.gyroscope_noise_density);
     n.accelerometer_noise_density =
         OptionalDouble(r, imu, "accelerometer_noise_density", "imu", n.accelerometer_noise_density);
-    n.gyroscope_random_walk = OptionalDouble(r, imu, "gyroscope_random_walk", "imu", n.gyroscope_random_walk);
+    n.gyroscope_random_walk =
+        OptionalDouble(r, imu, "gyroscope_random_walk", "imu", n.gyroscope_random_walk);
     n.accelerometer_random_walk =
         OptionalDouble(r, imu, "accelerometer_random_walk", "imu", n.accelerometer_random_walk);
-    if (const YAML::Node b = imu["gyroscope_bias"]) scene.gyro_bias0 = r.Vector3(b, "imu.gyroscope_bias");
-    if (const YAML::Node b = imu["accelerometer_bias"]) scene.acc_bias0 = r.Vector3(b, "imu.accelerometer_bias");
+    if (const YAML::Node b = imu["gyroscope_bias"])
+      scene.gyro_bias0 = r.Vector3(b, "imu.gyroscope_bias");
+    if (const YAML::Node b = imu["accelerometer_bias"])
+      scene.acc_bias0 = r.Vector3(b, "imu.accelerometer_bias");
     std::string why;
     if (!n.Check(&why)) r.Fail(imu, "imu: " + why);
   }
@@ -339,7 +373,8 @@ Scene ParseScene(const std::string& yaml_text, const std::string& name, const st
     Room rm;
     rm.min_W = r.Vector3(r.Require(room, "min", "room"), "room.min");
     rm.max_W = r.Vector3(r.Require(room, "max", "room"), "room.max");
-    if (!((rm.max_W - rm.min_W).array() > 0.0).all()) r.Fail(room, "room: max must exceed min on every axis");
+    if (!((rm.max_W - rm.min_W).array() > 0.0).all())
+      r.Fail(room, "room: max must exceed min on every axis");
     scene.room = rm;
   }
 
@@ -350,7 +385,8 @@ Scene ParseScene(const std::string& yaml_text, const std::string& name, const st
     std::set<int> ids;
     for (size_t i = 0; i < objects.size(); ++i) {
       SceneObject obj = ParseObject(r, objects[i], i);
-      if (!ids.insert(obj.id).second) r.Fail(objects[i], "duplicate object id " + std::to_string(obj.id));
+      if (!ids.insert(obj.id).second)
+        r.Fail(objects[i], "duplicate object id " + std::to_string(obj.id));
       scene.objects.push_back(std::move(obj));
     }
   }
@@ -368,9 +404,11 @@ Scene ParseScene(const std::string& yaml_text, const std::string& name, const st
   }
   if (const YAML::Node render = root["render"]) {
     r.CheckMap(render, "render", {"supersampling", "motion_blur_samples", "exposure_s", "ambient"});
-    if (render["supersampling"]) scene.render.supersampling = r.Int(render["supersampling"], "render.supersampling");
+    if (render["supersampling"])
+      scene.render.supersampling = r.Int(render["supersampling"], "render.supersampling");
     if (render["motion_blur_samples"]) {
-      scene.render.motion_blur_samples = r.Int(render["motion_blur_samples"], "render.motion_blur_samples");
+      scene.render.motion_blur_samples =
+          r.Int(render["motion_blur_samples"], "render.motion_blur_samples");
     }
     scene.render.ambient = OptionalDouble(r, render, "ambient", "render", scene.render.ambient);
     scene.exposure_s = OptionalDouble(r, render, "exposure_s", "render", 0.0);
@@ -387,7 +425,8 @@ Scene ParseScene(const std::string& yaml_text, const std::string& name, const st
     const YAML::Node traj = require_top("trajectory");
     r.CheckMap(traj, "trajectory", {"waypoints", "file", "smoothing_s", "knot_s"});
     TrajectoryOptions options;
-    options.pose_smoothing_s = OptionalDouble(r, traj, "smoothing_s", "trajectory", options.pose_smoothing_s);
+    options.pose_smoothing_s =
+        OptionalDouble(r, traj, "smoothing_s", "trajectory", options.pose_smoothing_s);
     options.pose_knot_s = OptionalDouble(r, traj, "knot_s", "trajectory", options.pose_knot_s);
     std::string why;
     if (!options.Check(&why)) r.Fail(traj, "trajectory: " + why);
@@ -397,11 +436,13 @@ Scene ParseScene(const std::string& yaml_text, const std::string& name, const st
     }
     try {
       if (wps) {
-        if (!wps.IsSequence()) r.Fail(wps, "trajectory.waypoints must be a list of [t_s, x, y, z, yaw_deg]");
+        if (!wps.IsSequence())
+          r.Fail(wps, "trajectory.waypoints must be a list of [t_s, x, y, z, yaw_deg]");
         std::vector<Waypoint> waypoints;
         for (size_t i = 0; i < wps.size(); ++i) {
-          const std::vector<double> v =
-              r.Doubles(wps[i], "trajectory.waypoints[" + std::to_string(i) + "] ([t_s, x, y, z, yaw_deg])", 5);
+          const std::vector<double> v = r.Doubles(
+              wps[i], "trajectory.waypoints[" + std::to_string(i) + "] ([t_s, x, y, z, yaw_deg])",
+              5);
           waypoints.push_back({v[0], Vec3(v[1], v[2], v[3]), v[4] * kDegToRad});
         }
         if (!waypoints.empty() && waypoints.front().t_s != 0.0) {
@@ -416,16 +457,17 @@ Scene ParseScene(const std::string& yaml_text, const std::string& name, const st
       }
     } catch (const InputError& e) {
       const std::string what = e.what();
-      // Errors from the pose file already name it; the trajectory's own ones get the scene's location.
-      if (what.rfind(name + ":", 0) == 0 || (!scene.trajectory_file.empty() &&
-                                             what.rfind(scene.trajectory_file, 0) == 0)) {
+      // Errors from the pose file already name it; the trajectory's own ones get the scene's
+      // location.
+      if (what.rfind(name + ":", 0) == 0 ||
+          (!scene.trajectory_file.empty() && what.rfind(scene.trajectory_file, 0) == 0)) {
         throw;
       }
       r.Fail(traj, "trajectory: " + what);
     }
     if (scene.trajectory.t_end() < scene.duration_s) {
-      r.Fail(traj, "trajectory ends at t = " + Fmt(scene.trajectory.t_end()) + " s, before duration_s = " +
-                       Fmt(scene.duration_s) + " s");
+      r.Fail(traj, "trajectory ends at t = " + Fmt(scene.trajectory.t_end()) +
+                       " s, before duration_s = " + Fmt(scene.duration_s) + " s");
     }
   }
   return scene;
@@ -444,7 +486,8 @@ std::vector<TexturedQuad> SceneQuads(const Scene& scene) {
   std::vector<TexturedQuad> quads;
   if (scene.room) {
     const Vec3 lo = scene.room->min_W, hi = scene.room->max_W, d = hi - lo;
-    auto add = [&](const Vec3& origin, const Vec3& u, const Vec3& v, TextureKind tex, uint32_t seed) {
+    auto add = [&](const Vec3& origin, const Vec3& u, const Vec3& v, TextureKind tex,
+                   uint32_t seed) {
       TexturedQuad q;
       q.id = -1;
       q.origin_W = origin;
@@ -456,12 +499,12 @@ std::vector<TexturedQuad> SceneQuads(const Scene& scene) {
     };
     const Vec3 X(d.x(), 0, 0), Y(0, d.y(), 0), Z(0, 0, d.z());
     // Normals u x v point into the room; walls have v = +z.
-    add(lo, X, Y, TextureKind::kFloor, 1);                                    // floor, normal +z
-    add(Vec3(lo.x(), lo.y(), hi.z()), Y, X, TextureKind::kCeiling, 2);        // ceiling, normal -z
-    add(Vec3(hi.x(), lo.y(), lo.z()), -X, Z, TextureKind::kWall, 3);          // y = min wall, normal +y
-    add(Vec3(lo.x(), hi.y(), lo.z()), X, Z, TextureKind::kWall, 4);           // y = max wall, normal -y
-    add(lo, Y, Z, TextureKind::kWall, 5);                                     // x = min wall, normal +x
-    add(Vec3(hi.x(), hi.y(), lo.z()), -Y, Z, TextureKind::kWall, 6);          // x = max wall, normal -x
+    add(lo, X, Y, TextureKind::kFloor, 1);                              // floor, normal +z
+    add(Vec3(lo.x(), lo.y(), hi.z()), Y, X, TextureKind::kCeiling, 2);  // ceiling, normal -z
+    add(Vec3(hi.x(), lo.y(), lo.z()), -X, Z, TextureKind::kWall, 3);    // y = min wall, normal +y
+    add(Vec3(lo.x(), hi.y(), lo.z()), X, Z, TextureKind::kWall, 4);     // y = max wall, normal -y
+    add(lo, Y, Z, TextureKind::kWall, 5);                               // x = min wall, normal +x
+    add(Vec3(hi.x(), hi.y(), lo.z()), -Y, Z, TextureKind::kWall, 6);    // x = max wall, normal -x
   }
   for (const SceneObject& obj : scene.objects) {
     TexturedQuad q;

@@ -66,7 +66,8 @@ void WriteCameraSensorYaml(const Scene& scene, const fs::path& path) {
   const PinholeRadtan& c = scene.camera;
   const double k[4] = {c.fx, c.fy, c.cx, c.cy};
   std::ostringstream os;
-  os << "# General sensor definitions (EuRoC layout), written by fsp render from " << scene.path << "\n"
+  os << "# General sensor definitions (EuRoC layout), written by fsp render from " << scene.path
+     << "\n"
      << "sensor_type: camera\n"
      << "comment: rendered camera (pinhole, radial-tangential)\n"
      << "# Sensor extrinsics wrt. the body-frame (T_BS = T_B_C: camera -> body/IMU).\n"
@@ -85,7 +86,8 @@ void WriteCameraSensorYaml(const Scene& scene, const fs::path& path) {
 void WriteImuSensorYaml(const Scene& scene, const fs::path& path) {
   const ImuNoise& n = scene.imu;
   std::ostringstream os;
-  os << "# General sensor definitions (EuRoC layout), written by fsp render from " << scene.path << "\n"
+  os << "# General sensor definitions (EuRoC layout), written by fsp render from " << scene.path
+     << "\n"
      << "sensor_type: imu\n"
      << "comment: synthetic IMU (white noise + bias random walk, Kalibr densities)\n"
      << "# Sensor extrinsics wrt. the body-frame (the IMU is the body).\n"
@@ -93,11 +95,14 @@ void WriteImuSensorYaml(const Scene& scene, const fs::path& path) {
      << EurocMatrix(Mat4::Identity()) << "\n"
      << "rate_hz: " << Num(n.rate_hz) << "\n"
      << "\n# inertial sensor noise model parameters (static)\n"
-     << "gyroscope_noise_density: " << Num(n.gyroscope_noise_density) << "     # [ rad / s / sqrt(Hz) ]\n"
-     << "gyroscope_random_walk: " << Num(n.gyroscope_random_walk) << "       # [ rad / s^2 / sqrt(Hz) ]\n"
+     << "gyroscope_noise_density: " << Num(n.gyroscope_noise_density)
+     << "     # [ rad / s / sqrt(Hz) ]\n"
+     << "gyroscope_random_walk: " << Num(n.gyroscope_random_walk)
+     << "       # [ rad / s^2 / sqrt(Hz) ]\n"
      << "accelerometer_noise_density: " << Num(n.accelerometer_noise_density)
      << "  # [ m / s^2 / sqrt(Hz) ]\n"
-     << "accelerometer_random_walk: " << Num(n.accelerometer_random_walk) << "    # [ m / s^3 / sqrt(Hz) ]\n";
+     << "accelerometer_random_walk: " << Num(n.accelerometer_random_walk)
+     << "    # [ m / s^3 / sqrt(Hz) ]\n";
   WriteText(path, os.str());
 }
 
@@ -135,12 +140,18 @@ uint64_t SplitMix64(uint64_t* state) {
 
 cv::Scalar ClassColour(ObjectClass c) {  // BGR
   switch (c) {
-    case ObjectClass::kDoor: return {30, 80, 150};
-    case ObjectClass::kWindow: return {210, 140, 40};
-    case ObjectClass::kCabinet: return {150, 60, 150};
-    case ObjectClass::kPoster: return {50, 50, 220};
-    case ObjectClass::kTag: return {20, 20, 20};
-    case ObjectClass::kUnknown: break;
+    case ObjectClass::kDoor:
+      return {30, 80, 150};
+    case ObjectClass::kWindow:
+      return {210, 140, 40};
+    case ObjectClass::kCabinet:
+      return {150, 60, 150};
+    case ObjectClass::kPoster:
+      return {50, 50, 220};
+    case ObjectClass::kTag:
+      return {20, 20, 20};
+    case ObjectClass::kUnknown:
+      break;
   }
   return {128, 128, 128};
 }
@@ -160,7 +171,8 @@ void AddPixelNoise(double sigma, uint32_t seed, int k, cv::Mat* image) {
     uint8_t* row = image->ptr<uint8_t>(r);
     for (int c = 0; c < image->cols; ++c) {
       const uint64_t z = SplitMix64(&state);
-      const float sum = static_cast<float>((z & 0xffff) + ((z >> 16) & 0xffff) + ((z >> 32) & 0xffff) + (z >> 48));
+      const float sum = static_cast<float>((z & 0xffff) + ((z >> 16) & 0xffff) +
+                                           ((z >> 32) & 0xffff) + (z >> 48));
       // Each 16-bit part is uniform on {0, ..., 65535}: (part + 0.5) / 65536 is centred on (0, 1).
       const float n = ((sum + 2.0f) * kInv16 - 2.0f) * scale;
       const float v = std::nearbyint(static_cast<float>(row[c]) + n);
@@ -188,8 +200,8 @@ std::vector<int64_t> FrameTimes(const Scene& scene) {
   return times;
 }
 
-std::vector<CornerRow> ProjectObjects(const Scene& scene, const Renderer* renderer, const Rigid3& T_W_C,
-                                      int64_t t_ns) {
+std::vector<CornerRow> ProjectObjects(const Scene& scene, const Renderer* renderer,
+                                      const Rigid3& T_W_C, int64_t t_ns) {
   const PinholeRadtan& cam = scene.camera;
   const Rigid3 T_C_W = T_W_C.Inverse();
   const Vec3 c_W = T_W_C.translation();
@@ -215,7 +227,8 @@ std::vector<CornerRow> ProjectObjects(const Scene& scene, const Renderer* render
       hi = hi.cwiseMax(row.corners[j]);
     }
     // Bounding box against the image (pixel centres 0..w-1, so the image spans -0.5..w-0.5).
-    if (hi.x() < -0.5 || hi.y() < -0.5 || lo.x() > cam.width - 0.5 || lo.y() > cam.height - 0.5) continue;
+    if (hi.x() < -0.5 || hi.y() < -0.5 || lo.x() > cam.width - 0.5 || lo.y() > cam.height - 0.5)
+      continue;
     bool visible = true;
     for (int j = 0; j < 4 && visible; ++j) {
       visible = cam.InImage(cam.Project(p_C[j])) &&
@@ -264,18 +277,18 @@ cv::Mat DrawTopView(const Scene& scene, int width_px) {
   auto label = [](double v) { return std::to_string(static_cast<long>(std::lround(v))); };
   for (double x = std::ceil(lo.x()); x <= hi.x() + 1e-9; x += 1.0) {
     cv::line(img, px(Vec3(x, lo.y(), 0)), px(Vec3(x, hi.y(), 0)), cv::Scalar(230, 230, 230), 1);
-    cv::putText(img, label(x), px(Vec3(x, lo.y(), 0)) + cv::Point(-6, 22), font, 0.45, cv::Scalar(120, 120, 120), 1,
-                cv::LINE_AA);
+    cv::putText(img, label(x), px(Vec3(x, lo.y(), 0)) + cv::Point(-6, 22), font, 0.45,
+                cv::Scalar(120, 120, 120), 1, cv::LINE_AA);
   }
   for (double y = std::ceil(lo.y()); y <= hi.y() + 1e-9; y += 1.0) {
     cv::line(img, px(Vec3(lo.x(), y, 0)), px(Vec3(hi.x(), y, 0)), cv::Scalar(230, 230, 230), 1);
-    cv::putText(img, label(y), px(Vec3(lo.x(), y, 0)) + cv::Point(-30, 5), font, 0.45, cv::Scalar(120, 120, 120), 1,
-                cv::LINE_AA);
+    cv::putText(img, label(y), px(Vec3(lo.x(), y, 0)) + cv::Point(-30, 5), font, 0.45,
+                cv::Scalar(120, 120, 120), 1, cv::LINE_AA);
   }
-  cv::putText(img, "x [m]", px(Vec3(hi.x(), lo.y(), 0)) + cv::Point(-40, 45), font, 0.5, cv::Scalar(80, 80, 80), 1,
-              cv::LINE_AA);
-  cv::putText(img, "y [m]", px(Vec3(lo.x(), hi.y(), 0)) + cv::Point(-62, -12), font, 0.5, cv::Scalar(80, 80, 80),
-              1, cv::LINE_AA);
+  cv::putText(img, "x [m]", px(Vec3(hi.x(), lo.y(), 0)) + cv::Point(-40, 45), font, 0.5,
+              cv::Scalar(80, 80, 80), 1, cv::LINE_AA);
+  cv::putText(img, "y [m]", px(Vec3(lo.x(), hi.y(), 0)) + cv::Point(-62, -12), font, 0.5,
+              cv::Scalar(80, 80, 80), 1, cv::LINE_AA);
   if (scene.room) {
     cv::rectangle(img, px(scene.room->min_W), px(scene.room->max_W), cv::Scalar(0, 0, 0), 3);
   }
@@ -285,12 +298,14 @@ cv::Mat DrawTopView(const Scene& scene, int width_px) {
   for (int i = 0; i < 256; ++i) ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(i);
   cv::applyColorMap(ramp, lut, cv::COLORMAP_TURBO);
   auto colour_at = [&](double t) {
-    const int i = std::clamp(static_cast<int>(std::lround(255.0 * t / std::max(t_end, 1e-9))), 0, 255);
+    const int i =
+        std::clamp(static_cast<int>(std::lround(255.0 * t / std::max(t_end, 1e-9))), 0, 255);
     const cv::Vec3b c = lut.at<cv::Vec3b>(0, i);
     return cv::Scalar(c[0], c[1], c[2]);
   };
   for (size_t i = 1; i < poses.size(); ++i) {
-    cv::line(img, px(poses[i - 1].translation()), px(poses[i].translation()), colour_at(times[i]), 3, cv::LINE_AA);
+    cv::line(img, px(poses[i - 1].translation()), px(poses[i].translation()), colour_at(times[i]),
+             3, cv::LINE_AA);
   }
   for (double t = 0.0; t <= t_end; t += 2.0) {
     const Rigid3 T_W_C = scene.trajectory.Pose(t) * scene.T_B_C;
@@ -298,17 +313,19 @@ cv::Mat DrawTopView(const Scene& scene, int width_px) {
     fwd.z() = 0.0;
     if (fwd.norm() < 1e-6) continue;
     const Vec3 p = T_W_C.translation();
-    cv::arrowedLine(img, px(p), px(p + 0.4 * fwd.normalized()), colour_at(t), 2, cv::LINE_AA, 0, 0.3);
+    cv::arrowedLine(img, px(p), px(p + 0.4 * fwd.normalized()), colour_at(t), 2, cv::LINE_AA, 0,
+                    0.3);
   }
   const cv::Point start = px(poses.front().translation()), end = px(poses.back().translation());
   cv::circle(img, start, 9, cv::Scalar(0, 160, 0), cv::FILLED, cv::LINE_AA);
   cv::circle(img, start, 9, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-  cv::putText(img, "start", start + cv::Point(12, -10), font, 0.55, cv::Scalar(0, 120, 0), 2, cv::LINE_AA);
+  cv::putText(img, "start", start + cv::Point(12, -10), font, 0.55, cv::Scalar(0, 120, 0), 2,
+              cv::LINE_AA);
   cv::rectangle(img, end - cv::Point(7, 7), end + cv::Point(7, 7), cv::Scalar(0, 0, 0), 2);
   cv::putText(img, "end", end + cv::Point(10, 18), font, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
 
-  // Objects: their footprint (a segment for a vertical rectangle), label "id class" pushed into the room
-  // along the face normal, further out while it would overlap an earlier label.
+  // Objects: their footprint (a segment for a vertical rectangle), label "id class" pushed into the
+  // room along the face normal, further out while it would overlap an earlier label.
   std::vector<cv::Rect> labels;
   for (const SceneObject& o : scene.objects) {
     std::vector<cv::Point> poly;
@@ -322,61 +339,73 @@ cv::Mat DrawTopView(const Scene& scene, int width_px) {
     const std::string text = std::to_string(o.id) + " " + o.class_name;
     int baseline = 0;
     const cv::Size size = cv::getTextSize(text, font, 0.42, 1, &baseline);
-    // Box centre at gap + half the box's extent along the (image) normal, so the box clears the wall.
+    // Box centre at gap + half the box's extent along the (image) normal, so the box clears the
+    // wall.
     const Vec2 n_px(n.x(), -n.y());
-    const double half_extent = 0.5 * (std::abs(n_px.x()) * size.width + std::abs(n_px.y()) * size.height);
+    const double half_extent =
+        0.5 * (std::abs(n_px.x()) * size.width + std::abs(n_px.y()) * size.height);
     cv::Rect box;
     for (int step = 0; step < 12; ++step) {
       const double d = 12.0 + half_extent + step * (size.height + 6);
       const cv::Point c = px(centre) + cv::Point(static_cast<int>(std::lround(n_px.x() * d)),
                                                  static_cast<int>(std::lround(n_px.y() * d)));
-      box = cv::Rect(c.x - size.width / 2, c.y - size.height / 2, size.width, size.height + baseline);
+      box =
+          cv::Rect(c.x - size.width / 2, c.y - size.height / 2, size.width, size.height + baseline);
       bool overlaps = false;
       for (const cv::Rect& r : labels) overlaps = overlaps || (r & box).area() > 0;
       if (!overlaps) break;
     }
     labels.push_back(box);
-    cv::putText(img, text, cv::Point(box.x, box.y + size.height), font, 0.42, colour, 1, cv::LINE_AA);
+    cv::putText(img, text, cv::Point(box.x, box.y + size.height), font, 0.42, colour, 1,
+                cv::LINE_AA);
   }
 
   // Title, class legend, time colour bar.
   const std::string name = fs::path(scene.path).filename().string();
-  cv::putText(img, "top view: " + name + "  (" + Num(scene.duration_s) + " s, " +
-                       std::to_string(scene.objects.size()) + " objects)",
+  cv::putText(img,
+              "top view: " + name + "  (" + Num(scene.duration_s) + " s, " +
+                  std::to_string(scene.objects.size()) + " objects)",
               cv::Point(margin, 32), font, 0.7, cv::Scalar(0, 0, 0), 2, cv::LINE_AA);
-  const int bar_x = width_px - bar_w + 20, bar_top = title_h + margin, bar_h = height_px - title_h - 2 * margin;
+  const int bar_x = width_px - bar_w + 20, bar_top = title_h + margin,
+            bar_h = height_px - title_h - 2 * margin;
   for (int i = 0; i < bar_h; ++i) {
     const double t = t_end * (1.0 - static_cast<double>(i) / std::max(bar_h - 1, 1));
-    cv::line(img, cv::Point(bar_x, bar_top + i), cv::Point(bar_x + 20, bar_top + i), colour_at(t), 1);
+    cv::line(img, cv::Point(bar_x, bar_top + i), cv::Point(bar_x + 20, bar_top + i), colour_at(t),
+             1);
   }
-  cv::putText(img, "time [s]", cv::Point(bar_x - 10, bar_top - 12), font, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  cv::putText(img, "time [s]", cv::Point(bar_x - 10, bar_top - 12), font, 0.5, cv::Scalar(0, 0, 0),
+              1, cv::LINE_AA);
   for (int k = 0; k <= 4; ++k) {
     const double t = t_end * k / 4.0;
     const int y = bar_top + static_cast<int>((bar_h - 1) * (1.0 - k / 4.0));
     char buf[32];
     std::snprintf(buf, sizeof(buf), "%.0f", t);
-    cv::putText(img, buf, cv::Point(bar_x + 26, y + 5), font, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    cv::putText(img, buf, cv::Point(bar_x + 26, y + 5), font, 0.45, cv::Scalar(0, 0, 0), 1,
+                cv::LINE_AA);
   }
   int legend_x = margin + 520;
-  for (ObjectClass c : {ObjectClass::kDoor, ObjectClass::kWindow, ObjectClass::kCabinet, ObjectClass::kPoster,
-                        ObjectClass::kTag}) {
+  for (ObjectClass c : {ObjectClass::kDoor, ObjectClass::kWindow, ObjectClass::kCabinet,
+                        ObjectClass::kPoster, ObjectClass::kTag}) {
     cv::line(img, cv::Point(legend_x, 48), cv::Point(legend_x + 22, 48), ClassColour(c), 5);
-    cv::putText(img, ToString(c), cv::Point(legend_x + 28, 53), font, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    cv::putText(img, ToString(c), cv::Point(legend_x + 28, 53), font, 0.45, cv::Scalar(0, 0, 0), 1,
+                cv::LINE_AA);
     legend_x += 100;
   }
   return img;
 }
 
-SequenceSummary WriteSequence(const Scene& scene, const std::string& out_dir, const SequenceOptions& options) {
+SequenceSummary WriteSequence(const Scene& scene, const std::string& out_dir,
+                              const SequenceOptions& options) {
   std::string why;
   FSP_CHECK(options.Check(&why));
   if (scene.trajectory.t_end() < scene.duration_s) {
-    throw InputError(scene.path, 0, "trajectory ends at t = " + Num(scene.trajectory.t_end()) +
-                                        " s, before the duration " + Num(scene.duration_s) + " s");
+    throw InputError(scene.path, 0,
+                     "trajectory ends at t = " + Num(scene.trajectory.t_end()) +
+                         " s, before the duration " + Num(scene.duration_s) + " s");
   }
   SequenceSummary summary;
   const fs::path out(out_dir), mav0 = out / "mav0", cam0 = mav0 / "cam0", data = cam0 / "data",
-      imu0 = mav0 / "imu0", gt0 = mav0 / "state_groundtruth_estimate0";
+                               imu0 = mav0 / "imu0", gt0 = mav0 / "state_groundtruth_estimate0";
   std::error_code ec;
   for (const fs::path& d : {data, imu0, gt0}) {
     fs::create_directories(d, ec);
@@ -385,7 +414,8 @@ SequenceSummary WriteSequence(const Scene& scene, const std::string& out_dir, co
   // Stale frames of an earlier render would confuse readers that list the folder.
   static const std::regex kFrameName("[0-9]+\\.png");
   for (const auto& entry : fs::directory_iterator(data)) {
-    if (std::regex_match(entry.path().filename().string(), kFrameName)) fs::remove(entry.path(), ec);
+    if (std::regex_match(entry.path().filename().string(), kFrameName))
+      fs::remove(entry.path(), ec);
   }
 
   // IMU and ground truth at the IMU times.
@@ -430,12 +460,13 @@ SequenceSummary WriteSequence(const Scene& scene, const std::string& out_dir, co
   {
     std::vector<CornerRow> rows;
     for (int64_t t_ns : frame_times) {
-      const std::vector<CornerRow> r = ProjectObjects(scene, &renderer, camera_pose(NsToSeconds(t_ns)), t_ns);
+      const std::vector<CornerRow> r =
+          ProjectObjects(scene, &renderer, camera_pose(NsToSeconds(t_ns)), t_ns);
       rows.insert(rows.end(), r.begin(), r.end());
     }
     summary.observation_rows = static_cast<int>(rows.size());
-    summary.fully_visible_rows =
-        static_cast<int>(std::count_if(rows.begin(), rows.end(), [](const CornerRow& r) { return r.fully_visible; }));
+    summary.fully_visible_rows = static_cast<int>(std::count_if(
+        rows.begin(), rows.end(), [](const CornerRow& r) { return r.fully_visible; }));
     WriteCornerRows(rows, (out / "observations_gt.csv").string(), true);
   }
 
@@ -448,8 +479,8 @@ SequenceSummary WriteSequence(const Scene& scene, const std::string& out_dir, co
   if (!options.images) return summary;
 
   // Images: worker threads render frame k (pose at its time, or blurred over the exposure), add its
-  // noise and write its PNG; this thread feeds the video in frame order. Workers stay at most kAhead
-  // frames ahead of the video, which bounds memory.
+  // noise and write its PNG; this thread feeds the video in frame order. Workers stay at most
+  // kAhead frames ahead of the video, which bounds memory.
   {
     std::ostringstream csv;
     csv << "#timestamp [ns],filename\n";
@@ -461,7 +492,8 @@ SequenceSummary WriteSequence(const Scene& scene, const std::string& out_dir, co
   if (options.video) {
     video.open(video_path, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), scene.camera_rate_hz,
                cv::Size(scene.camera.width, scene.camera.height), false);
-    if (!video.isOpened()) throw InputError(video_path, 0, "cannot open the video for writing (mp4v)");
+    if (!video.isOpened())
+      throw InputError(video_path, 0, "cannot open the video for writing (mp4v)");
   }
   const auto start = std::chrono::steady_clock::now();
   const int n = summary.frames;
@@ -532,7 +564,8 @@ SequenceSummary WriteSequence(const Scene& scene, const std::string& out_dir, co
   for (std::thread& th : threads) th.join();
   if (error) std::rethrow_exception(error);
   video.release();
-  summary.render_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.render_wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary.render_fps = summary.render_wall_s > 0.0 ? n / summary.render_wall_s : 0.0;
   return summary;
 }

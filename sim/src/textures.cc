@@ -21,8 +21,8 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Integer hash (lowbias32-style finaliser) of a lattice point and a seed: the basis of all noise here,
-// so textures depend on nothing but their inputs.
+// Integer hash (lowbias32-style finaliser) of a lattice point and a seed: the basis of all noise
+// here, so textures depend on nothing but their inputs.
 uint32_t Hash(int32_t x, int32_t y, uint32_t seed) {
   uint32_t h = seed * 0x9E3779B9u;
   h ^= static_cast<uint32_t>(x) * 0x85EBCA6Bu;
@@ -37,7 +37,9 @@ uint32_t Hash(int32_t x, int32_t y, uint32_t seed) {
 }
 
 // Uniform in [0, 1) from (x, y, seed).
-double Rand01(int32_t x, int32_t y, uint32_t seed) { return Hash(x, y, seed) * (1.0 / 4294967296.0); }
+double Rand01(int32_t x, int32_t y, uint32_t seed) {
+  return Hash(x, y, seed) * (1.0 / 4294967296.0);
+}
 
 // Value noise in [0, 1]: lattice values at integer points, smoothstep-interpolated.
 double ValueNoise(double x, double y, uint32_t seed) {
@@ -87,7 +89,8 @@ void Fill(cv::Mat* tex, double width_m, double height_m, int ss, const F& f) {
   });
 }
 
-// Distance (metres) from (x, y) to the nearest edge of the [0, w] x [0, h] rectangle, negative outside.
+// Distance (metres) from (x, y) to the nearest edge of the [0, w] x [0, h] rectangle, negative
+// outside.
 double EdgeDistance(double x, double y, double w, double h) {
   return std::min(std::min(x, w - x), std::min(y, h - y));
 }
@@ -96,7 +99,8 @@ bool InBox(double x, double y, double x0, double y0, double x1, double y1) {
   return x >= x0 && x <= x1 && y >= y0 && y <= y1;
 }
 
-// Wall: plaster (fractal noise) or wallpaper (faint vertical stripes and a small motif), chosen by seed.
+// Wall: plaster (fractal noise) or wallpaper (faint vertical stripes and a small motif), chosen by
+// seed.
 void PaintWall(cv::Mat* tex, double w, double h, uint32_t seed) {
   const double base = 0.56 + 0.10 * Rand01(1, 0, seed);
   const bool wallpaper = Hash(2, 0, seed) % 3 == 0;
@@ -109,7 +113,8 @@ void PaintWall(cv::Mat* tex, double w, double h, uint32_t seed) {
       v += 0.025 * s;
       // A small motif (dots) between the stripes, staggered by row.
       const double row = std::floor(y / period);
-      const double cx = (std::floor(x / period) + 0.5 + 0.5 * std::fmod(std::abs(row), 2.0)) * period;
+      const double cx =
+          (std::floor(x / period) + 0.5 + 0.5 * std::fmod(std::abs(row), 2.0)) * period;
       const double cy = (row + 0.5) * period;
       const double r = std::hypot(x - cx, y - cy);
       if (r < 0.12 * period) v -= 0.05;
@@ -127,7 +132,8 @@ void PaintFloor(cv::Mat* tex, double w, double h, uint32_t seed) {
       const double tx = std::floor(x / size), ty = std::floor(y / size);
       const double lx = x - tx * size, ly = y - ty * size;
       if (lx < grout || ly < grout) return 0.28;
-      const double tile = 0.42 + 0.12 * Rand01(static_cast<int32_t>(tx), static_cast<int32_t>(ty), seed + 5u);
+      const double tile =
+          0.42 + 0.12 * Rand01(static_cast<int32_t>(tx), static_cast<int32_t>(ty), seed + 5u);
       return tile + 0.06 * (Fbm(x / 0.04, y / 0.04, seed + 9u, 2) - 0.5);
     });
   } else {
@@ -162,7 +168,8 @@ double FrameWidth(double w, double h, double frac, double lo, double hi) {
   return std::clamp(frac * std::min(w, h), lo, hi);
 }
 
-// Wood (doors): vertical grain, a dark outer frame, two recessed panels and a handle for door-sized quads.
+// Wood (doors): vertical grain, a dark outer frame, two recessed panels and a handle for door-sized
+// quads.
 void PaintWood(cv::Mat* tex, double w, double h, uint32_t seed) {
   const double fw = FrameWidth(w, h, 0.06, 0.02, 0.08);
   const double base = 0.46 + 0.12 * Rand01(1, 2, seed);
@@ -170,9 +177,10 @@ void PaintWood(cv::Mat* tex, double w, double h, uint32_t seed) {
   const double inset = std::min(0.15, 0.2 * std::min(w, h)), line = 0.012;
   Fill(tex, w, h, 2, [&](double x, double y) {
     if (EdgeDistance(x, y, w, h) < fw) return 0.2;
-    double v = base +
-               0.06 * std::sin(2.0 * kPi * (x / 0.011 + 4.0 * Fbm(x / 0.3, y / 1.5, seed + 3u, 3))) +
-               0.05 * (Fbm(x / 0.02, y / 0.3, seed + 4u, 2) - 0.5);
+    double v =
+        base +
+        0.06 * std::sin(2.0 * kPi * (x / 0.011 + 4.0 * Fbm(x / 0.3, y / 1.5, seed + 3u, 3))) +
+        0.05 * (Fbm(x / 0.02, y / 0.3, seed + 4u, 2) - 0.5);
     if (door) {
       // Two panels: lower [inset, 0.45h], upper [0.5h, h - inset]; their outlines are grooves.
       const double xs[2] = {inset, w - inset};
@@ -194,7 +202,8 @@ void PaintWood(cv::Mat* tex, double w, double h, uint32_t seed) {
 // Glass (windows): bright sky-like pane with soft clouds, a dark frame and a cross of mullions.
 void PaintGlass(cv::Mat* tex, double w, double h, uint32_t seed) {
   const double fw = FrameWidth(w, h, 0.06, 0.03, 0.08), mw = 0.6 * fw;
-  const double mx = w * (0.45 + 0.1 * Rand01(1, 3, seed)), my = h * (0.55 + 0.1 * Rand01(2, 3, seed));
+  const double mx = w * (0.45 + 0.1 * Rand01(1, 3, seed)),
+               my = h * (0.55 + 0.1 * Rand01(2, 3, seed));
   Fill(tex, w, h, 2, [&](double x, double y) {
     if (EdgeDistance(x, y, w, h) < fw) return 0.2;
     if (std::abs(x - mx) < 0.5 * mw || std::abs(y - my) < 0.5 * mw) return 0.22;
@@ -202,12 +211,14 @@ void PaintGlass(cv::Mat* tex, double w, double h, uint32_t seed) {
   });
 }
 
-// Cabinet front: body with fine noise, dark frame, one or two doors with inset panel outlines and handles.
+// Cabinet front: body with fine noise, dark frame, one or two doors with inset panel outlines and
+// handles.
 void PaintCabinet(cv::Mat* tex, double w, double h, uint32_t seed) {
   const double fw = FrameWidth(w, h, 0.04, 0.02, 0.05);
   const double base = 0.50 + 0.15 * Rand01(1, 4, seed);
   const int doors = w > 0.8 ? 2 : 1;
-  const double dw = (w - 2 * fw) / doors, inset = std::min(0.06, 0.15 * std::min(dw, h)), line = 0.008;
+  const double dw = (w - 2 * fw) / doors, inset = std::min(0.06, 0.15 * std::min(dw, h)),
+               line = 0.008;
   const double handle_y = h * (0.55 + 0.2 * Rand01(2, 4, seed));
   Fill(tex, w, h, 2, [&](double x, double y) {
     if (EdgeDistance(x, y, w, h) < fw) return 0.25;
@@ -216,11 +227,12 @@ void PaintCabinet(cv::Mat* tex, double w, double h, uint32_t seed) {
     const double x0 = fw + d * dw, x1 = x0 + dw;
     if (doors == 2 && std::abs(x - (fw + dw)) < 0.004) return 0.2;  // gap between the doors
     const bool outer = InBox(x, y, x0 + inset, fw + inset, x1 - inset, h - fw - inset);
-    const bool inner = InBox(x, y, x0 + inset + line, fw + inset + line, x1 - inset - line,
-                             h - fw - inset - line);
+    const bool inner =
+        InBox(x, y, x0 + inset + line, fw + inset + line, x1 - inset - line, h - fw - inset - line);
     if (outer && !inner) v -= 0.15;
     // Vertical bar handle near the door's opening side.
-    const double hx = (doors == 2) ? (d == 0 ? x1 - 0.5 * inset : x0 + 0.5 * inset) : x1 - 0.5 * inset;
+    const double hx =
+        (doors == 2) ? (d == 0 ? x1 - 0.5 * inset : x0 + 0.5 * inset) : x1 - 0.5 * inset;
     if (std::abs(x - hx) < 0.008 && std::abs(y - handle_y) < std::min(0.06, 0.15 * h)) v = 0.1;
     return v;
   });
@@ -236,7 +248,7 @@ void PaintPoster(cv::Mat* tex, double w, double h, uint32_t seed) {
   const double fw = FrameWidth(w, h, 0.03, 0.01, 0.04);
   const int fx = std::max(1, static_cast<int>(std::lround(fw * sx)));
   const int fy = std::max(1, static_cast<int>(std::lround(fw * sy)));
-  constexpr int kShift = 4;  // sub-texel precision of the drawing calls
+  constexpr int kShift = 4;               // sub-texel precision of the drawing calls
   auto P = [&](double x_m, double y_m) {  // metres (y up) -> fixed-point texel coordinates
     return cv::Point(static_cast<int>(std::lround(x_m * sx * (1 << kShift))),
                      static_cast<int>(std::lround((h - y_m) * sy * (1 << kShift))));
@@ -263,17 +275,19 @@ void PaintPoster(cv::Mat* tex, double w, double h, uint32_t seed) {
     }
   }
   // One line of text across the bottom quarter.
-  static const char* const kWords[] = {"FSP-SLAM", "ROOM 101", "EXHIBIT", "QUIET PLEASE",
-                                       "SUMMER 1999", "VISIT THE LAB", "SEMINAR 4PM", "NO ENTRY"};
+  static const char* const kWords[] = {"FSP-SLAM",     "ROOM 101",    "EXHIBIT",
+                                       "QUIET PLEASE", "SUMMER 1999", "VISIT THE LAB",
+                                       "SEMINAR 4PM",  "NO ENTRY"};
   const std::string text = kWords[rng() % (sizeof(kWords) / sizeof(kWords[0]))];
   int baseline = 0;
   const cv::Size unit = cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, 1.0, 2, &baseline);
   const double scale = std::min(0.75 * (W - 2 * fx) / unit.width, 0.12 * H / unit.height);
   if (scale > 0.2) {
     const int thickness = std::max(1, static_cast<int>(std::lround(2 * scale)));
-    const cv::Size ts = cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, scale, thickness, &baseline);
-    cv::putText(img, text, cv::Point((W - ts.width) / 2, H - fy - static_cast<int>(0.08 * H)), cv::FONT_HERSHEY_SIMPLEX,
-                scale, cv::Scalar(30), thickness, cv::LINE_AA);
+    const cv::Size ts =
+        cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, scale, thickness, &baseline);
+    cv::putText(img, text, cv::Point((W - ts.width) / 2, H - fy - static_cast<int>(0.08 * H)),
+                cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(30), thickness, cv::LINE_AA);
   }
   // Frame last so that it stays crisp.
   img.rowRange(0, std::min(fy, H)).setTo(40);
@@ -283,9 +297,9 @@ void PaintPoster(cv::Mat* tex, double w, double h, uint32_t seed) {
   img.convertTo(*tex, CV_32F, 1.0 / 255.0);
 }
 
-// Tag36h11 code `tag_id` as a 10 x 10 grid of cells (row 0 at the top), 1 = white, following the family
-// table's layout exactly as the library's own apriltag_to_image does: white margin ring, black border
-// ring, data bits at (bit_x, bit_y) inside the border (most significant bit first).
+// Tag36h11 code `tag_id` as a 10 x 10 grid of cells (row 0 at the top), 1 = white, following the
+// family table's layout exactly as the library's own apriltag_to_image does: white margin ring,
+// black border ring, data bits at (bit_x, bit_y) inside the border (most significant bit first).
 std::array<std::array<uint8_t, kTagTotalCells>, kTagTotalCells> TagCells(int tag_id) {
   apriltag_family_t* fam = tag36h11_create();
   if (tag_id < 0 || static_cast<uint32_t>(tag_id) >= fam->ncodes) {
@@ -317,8 +331,8 @@ std::array<std::array<uint8_t, kTagTotalCells>, kTagTotalCells> TagCells(int tag
 void PaintTag(cv::Mat* tex, int tag_id) {
   const auto cells = TagCells(tag_id);
   const double n = kTagTotalCells;
-  // Coordinates in cells: x from the left, y up from the bottom; 4 x 4 box filter per texel, so a cell
-  // boundary on a texel centre gives exactly the mid grey.
+  // Coordinates in cells: x from the left, y up from the bottom; 4 x 4 box filter per texel, so a
+  // cell boundary on a texel centre gives exactly the mid grey.
   Fill(tex, n, n, 4, [&](double x, double y) {
     const int cx = std::clamp(static_cast<int>(std::floor(x)), 0, kTagTotalCells - 1);
     const int row = std::clamp(static_cast<int>(std::floor(n - y)), 0, kTagTotalCells - 1);
@@ -335,7 +349,8 @@ void PaintPlain(cv::Mat* tex, double w, double h) {
 }  // namespace
 
 void TextureExtent(const TexturedQuad& quad, double* width_m, double* height_m) {
-  const double k = quad.texture == TextureKind::kTag ? double(kTagTotalCells) / kTagBorderCells : 1.0;
+  const double k =
+      quad.texture == TextureKind::kTag ? double(kTagTotalCells) / kTagBorderCells : 1.0;
   *width_m = k * quad.axis_u_W.norm();
   *height_m = k * quad.axis_v_W.norm();
 }
@@ -345,10 +360,12 @@ void TextureSize(const TexturedQuad& quad, double texels_per_m, int max_side, in
   double w_m = 0.0, h_m = 0.0;
   TextureExtent(quad, &w_m, &h_m);
   if (quad.texture == TextureKind::kTag) {
-    // (10 m + 1) texels: cell boundaries on texel centres; at least 16 texels per cell (sharp up close).
+    // (10 m + 1) texels: cell boundaries on texel centres; at least 16 texels per cell (sharp up
+    // close).
     const int max_m = std::max(1, (max_side - 1) / kTagTotalCells);
-    const int m = std::clamp(static_cast<int>(std::ceil(std::max(w_m, h_m) * texels_per_m / kTagTotalCells)),
-                             std::min(16, max_m), max_m);
+    const int m =
+        std::clamp(static_cast<int>(std::ceil(std::max(w_m, h_m) * texels_per_m / kTagTotalCells)),
+                   std::min(16, max_m), max_m);
     *width_px = *height_px = kTagTotalCells * m + 1;
     return;
   }
@@ -366,15 +383,33 @@ cv::Mat MakeTextureFloat(const TexturedQuad& quad, int width_px, int height_px) 
   TextureExtent(quad, &w, &h);
   const uint32_t seed = quad.seed;
   switch (quad.texture) {
-    case TextureKind::kWall: PaintWall(&tex, w, h, seed); break;
-    case TextureKind::kFloor: PaintFloor(&tex, w, h, seed); break;
-    case TextureKind::kCeiling: PaintCeiling(&tex, w, h, seed); break;
-    case TextureKind::kWood: PaintWood(&tex, w, h, seed); break;
-    case TextureKind::kGlass: PaintGlass(&tex, w, h, seed); break;
-    case TextureKind::kCabinet: PaintCabinet(&tex, w, h, seed); break;
-    case TextureKind::kPoster: PaintPoster(&tex, w, h, seed); break;
-    case TextureKind::kTag: PaintTag(&tex, quad.tag_id); break;
-    case TextureKind::kPlain: PaintPlain(&tex, w, h); break;
+    case TextureKind::kWall:
+      PaintWall(&tex, w, h, seed);
+      break;
+    case TextureKind::kFloor:
+      PaintFloor(&tex, w, h, seed);
+      break;
+    case TextureKind::kCeiling:
+      PaintCeiling(&tex, w, h, seed);
+      break;
+    case TextureKind::kWood:
+      PaintWood(&tex, w, h, seed);
+      break;
+    case TextureKind::kGlass:
+      PaintGlass(&tex, w, h, seed);
+      break;
+    case TextureKind::kCabinet:
+      PaintCabinet(&tex, w, h, seed);
+      break;
+    case TextureKind::kPoster:
+      PaintPoster(&tex, w, h, seed);
+      break;
+    case TextureKind::kTag:
+      PaintTag(&tex, quad.tag_id);
+      break;
+    case TextureKind::kPlain:
+      PaintPlain(&tex, w, h);
+      break;
   }
   cv::min(cv::max(tex, 0.0), 1.0, tex);
   return tex;

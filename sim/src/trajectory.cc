@@ -21,7 +21,9 @@ double FallingFactorial(int n, int k) {
   return f;
 }
 
-Vec4 Flat(const Waypoint& w) { return Vec4(w.p_W.x(), w.p_W.y(), w.p_W.z(), w.yaw_rad); }
+Vec4 Flat(const Waypoint& w) {
+  return Vec4(w.p_W.x(), w.p_W.y(), w.p_W.z(), w.yaw_rad);
+}
 
 bool IsStill(const Waypoint& a, const Waypoint& b) {
   return (a.p_W - b.p_W).norm() < 1e-9 && std::abs(a.yaw_rad - b.yaw_rad) < 1e-12;
@@ -40,7 +42,8 @@ bool TrajectoryOptions::Check(std::string* why) const {
   return true;
 }
 
-Trajectory Trajectory::FromWaypoints(const std::vector<Waypoint>& waypoints, const TrajectoryOptions& options) {
+Trajectory Trajectory::FromWaypoints(const std::vector<Waypoint>& waypoints,
+                                     const TrajectoryOptions& options) {
   std::string why;
   FSP_CHECK(options.Check(&why));
   if (waypoints.size() < 2) throw InputError("a trajectory needs at least 2 waypoints");
@@ -50,8 +53,8 @@ Trajectory Trajectory::FromWaypoints(const std::vector<Waypoint>& waypoints, con
       throw InputError("waypoint " + std::to_string(i) + " is not finite");
     }
     if (i > 0 && !(w.t_s > waypoints[i - 1].t_s)) {
-      throw InputError("waypoint times must strictly increase (waypoint " + std::to_string(i) + " at t = " +
-                       std::to_string(w.t_s) + " s)");
+      throw InputError("waypoint times must strictly increase (waypoint " + std::to_string(i) +
+                       " at t = " + std::to_string(w.t_s) + " s)");
     }
   }
 
@@ -66,8 +69,9 @@ Trajectory Trajectory::FromWaypoints(const std::vector<Waypoint>& waypoints, con
   const auto& k = traj.knots_;
   const size_t n = k.size();
 
-  // Derivatives at each waypoint: velocity and acceleration of the parabola through the waypoint and its
-  // neighbours (non-uniform spacing): with h0, h1 the neighbouring intervals and d0, d1 the slopes,
+  // Derivatives at each waypoint: velocity and acceleration of the parabola through the waypoint
+  // and its neighbours (non-uniform spacing): with h0, h1 the neighbouring intervals and d0, d1 the
+  // slopes,
   //   v = (h1 d0 + h0 d1) / (h0 + h1),   a = 2 (d1 - d0) / (h0 + h1);   jerk = 0.
   // Zero at the ends and next to a still segment (exact hover).
   std::vector<Vec4> vel(n, Vec4::Zero()), acc(n, Vec4::Zero()), jerk(n, Vec4::Zero());
@@ -79,8 +83,8 @@ Trajectory Trajectory::FromWaypoints(const std::vector<Waypoint>& waypoints, con
     acc[i] = 2.0 * (d1 - d0) / (h0 + h1);
   }
 
-  // Degree-7 Hermite segment in s = (t - t0) / T, y(s) = sum_n c_n s^n, with d^k y/dt^k = y^(k)(s) / T^k:
-  // c0..c3 from the start (p, v T, a T^2 / 2, j T^3 / 6); c4..c7 solve the end conditions
+  // Degree-7 Hermite segment in s = (t - t0) / T, y(s) = sum_n c_n s^n, with d^k y/dt^k = y^(k)(s)
+  // / T^k: c0..c3 from the start (p, v T, a T^2 / 2, j T^3 / 6); c4..c7 solve the end conditions
   //   sum_n n!/(n-k)! c_n = (p1, v1 T, a1 T^2, j1 T^3)_k,  k = 0..3.
   Eigen::Matrix4d M;
   for (int row = 0; row < 4; ++row) {
@@ -100,7 +104,8 @@ Trajectory Trajectory::FromWaypoints(const std::vector<Waypoint>& waypoints, con
     seg.c.row(2) = (acc[i] * T * T / 2.0).transpose();
     seg.c.row(3) = (jerk[i] * T * T * T / 6.0).transpose();
     const Vec4 end_target[4] = {p1, vel[i + 1] * T, acc[i + 1] * T * T, jerk[i + 1] * T * T * T};
-    Eigen::Matrix4d rhs;  // row k: end condition k minus the known coefficients' part; columns: outputs
+    Eigen::Matrix4d
+        rhs;  // row k: end condition k minus the known coefficients' part; columns: outputs
     for (int kk = 0; kk < 4; ++kk) {
       Vec4 known = Vec4::Zero();
       for (int nn = kk; nn < 4; ++nn) known += FallingFactorial(nn, kk) * seg.c.row(nn).transpose();
@@ -128,7 +133,8 @@ Trajectory Trajectory::FromWaypoints(const std::vector<Waypoint>& waypoints, con
   return traj;
 }
 
-Trajectory Trajectory::FromPoses(const std::vector<StampedPose>& poses, const TrajectoryOptions& options) {
+Trajectory Trajectory::FromPoses(const std::vector<StampedPose>& poses,
+                                 const TrajectoryOptions& options) {
   std::string why;
   FSP_CHECK(options.Check(&why));
   if (poses.size() < 2) throw InputError("a pose trajectory needs at least 2 poses");
@@ -174,7 +180,8 @@ Trajectory Trajectory::FromPoses(const std::vector<StampedPose>& poses, const Tr
         continue;
       }
     }
-    const size_t hi = std::min<size_t>(std::upper_bound(t.begin(), t.end(), tk) - t.begin(), t.size() - 1);
+    const size_t hi =
+        std::min<size_t>(std::upper_bound(t.begin(), t.end(), tk) - t.begin(), t.size() - 1);
     const size_t lo = hi == 0 ? 0 : hi - 1;
     const double alpha = hi == lo ? 0.0 : std::clamp((tk - t[lo]) / (t[hi] - t[lo]), 0.0, 1.0);
     w.p_W = (1.0 - alpha) * poses[lo].T_W_B.translation() + alpha * poses[hi].T_W_B.translation();
@@ -185,8 +192,9 @@ Trajectory Trajectory::FromPoses(const std::vector<StampedPose>& poses, const Tr
 
 const Trajectory::Segment& Trajectory::SegmentAt(double t) const {
   // First segment whose end is >= t.
-  auto it = std::lower_bound(segments_.begin(), segments_.end(), t,
-                             [](const Segment& s, double value) { return s.t0 + s.duration < value; });
+  auto it =
+      std::lower_bound(segments_.begin(), segments_.end(), t,
+                       [](const Segment& s, double value) { return s.t0 + s.duration < value; });
   if (it == segments_.end()) --it;
   return *it;
 }
@@ -203,7 +211,8 @@ Vec4 Trajectory::FlatDerivative(double t, int k) const {
   const double s = (t - seg.t0) / seg.duration;
   // d^k y / dt^k = sum_{n >= k} n!/(n-k)! c_n s^(n-k) / T^k  (Horner in s).
   Vec4 value = Vec4::Zero();
-  for (int nn = 7; nn >= k; --nn) value = value * s + FallingFactorial(nn, k) * seg.c.row(nn).transpose();
+  for (int nn = 7; nn >= k; --nn)
+    value = value * s + FallingFactorial(nn, k) * seg.c.row(nn).transpose();
   return value / std::pow(seg.duration, k);
 }
 
@@ -222,12 +231,14 @@ TrajectoryState Trajectory::State(double t) const {
   FSP_CHECK(f > 1e-6);
   const Vec3 b3 = u / f;
   const Vec3 b3_dot = (jerk - b3 * b3.dot(jerk)) / f;
-  // Heading: x_c = (cos psi, sin psi, 0); b2 = w / |w| with w = b3 x x_c; db2/dt = (I - b2 b2^T) dw/dt / |w|.
+  // Heading: x_c = (cos psi, sin psi, 0); b2 = w / |w| with w = b3 x x_c; db2/dt = (I - b2 b2^T)
+  // dw/dt / |w|.
   const Vec3 xc(std::cos(psi), std::sin(psi), 0.0);
   const Vec3 xc_dot = psi_dot * Vec3(-std::sin(psi), std::cos(psi), 0.0);
   const Vec3 w = b3.cross(xc);
   const double wn = w.norm();
-  FSP_CHECK(wn > 1e-6);  // body z horizontal along the heading: impossible with thrust >= min_thrust
+  FSP_CHECK(wn >
+            1e-6);  // body z horizontal along the heading: impossible with thrust >= min_thrust
   const Vec3 b2 = w / wn;
   const Vec3 w_dot = b3_dot.cross(xc) + b3.cross(xc_dot);
   const Vec3 b2_dot = (w_dot - b2 * b2.dot(w_dot)) / wn;
@@ -240,7 +251,8 @@ TrajectoryState Trajectory::State(double t) const {
   R_dot << b1_dot, b2_dot, b3_dot;
   // [w_B]x = R^T dR/dt (skew-symmetric up to rounding; take its antisymmetric part).
   const Mat3 Omega = R_W_B.transpose() * R_dot;
-  state.w_B = 0.5 * Vec3(Omega(2, 1) - Omega(1, 2), Omega(0, 2) - Omega(2, 0), Omega(1, 0) - Omega(0, 1));
+  state.w_B =
+      0.5 * Vec3(Omega(2, 1) - Omega(1, 2), Omega(0, 2) - Omega(2, 0), Omega(1, 0) - Omega(0, 1));
   state.T_W_B = Rigid3(R_W_B, d0.head<3>());
   return state;
 }

@@ -26,8 +26,8 @@ Corners TrueCorners(int id, int k) {
   return {Vec2(u0, v0), Vec2(u0 + 10.5, v0), Vec2(u0 + 10.5, v0 - 8.25), Vec2(u0, v0 - 8.25)};
 }
 
-// A EuRoC folder with 4 frames, objects 1 (door) and 2 (tag) seen in every frame; object 2 is not fully
-// visible in frame 2. Returns the frame times.
+// A EuRoC folder with 4 frames, objects 1 (door) and 2 (tag) seen in every frame; object 2 is not
+// fully visible in frame 2. Returns the frame times.
 std::vector<int64_t> MakeSequence(const fs::path& dir) {
   const std::vector<int64_t> t = test::MakeEuroc(dir, 4);
   std::vector<CornerRow> rows;
@@ -66,7 +66,8 @@ TEST(GtCorners, NoiseFreeGivesTheExactCornersAndClasses) {
       EXPECT_EQ(o.t_ns, t[k]);
       EXPECT_EQ(o.object_class, o.object_id == 1 ? ObjectClass::kDoor : ObjectClass::kTag);
       const Corners truth = TrueCorners(o.object_id, k);
-      for (int j = 0; j < 4; ++j) EXPECT_EQ(o.corners[j], truth[j]) << "object " << o.object_id << " corner " << j;
+      for (int j = 0; j < 4; ++j)
+        EXPECT_EQ(o.corners[j], truth[j]) << "object " << o.object_id << " corner " << j;
     }
   }
   EXPECT_TRUE(fe.Process(t[3] + 1).empty());  // a time without rows
@@ -88,7 +89,8 @@ TEST(GtCorners, NotFullyVisibleRowsAreDropped) {
 TEST(GtCorners, SameSeedSameNoiseOtherSeedOtherNoise) {
   const fs::path dir = test::ScratchDir();
   const std::vector<int64_t> t = MakeSequence(dir);
-  GtCornersFrontend a(dir.string(), Sigma(1.0, 7)), b(dir.string(), Sigma(1.0, 7)), c(dir.string(), Sigma(1.0, 8));
+  GtCornersFrontend a(dir.string(), Sigma(1.0, 7)), b(dir.string(), Sigma(1.0, 7)),
+      c(dir.string(), Sigma(1.0, 8));
   double sum_sq = 0.0;
   int n = 0;
   for (int k = 0; k < 4; ++k) {
@@ -107,7 +109,8 @@ TEST(GtCorners, SameSeedSameNoiseOtherSeedOtherNoise) {
       }
     }
   }
-  // 56 draws of N(0, 1): the sample std lies in [0.7, 1.3] with probability > 0.999 (fixed seed anyway).
+  // 56 draws of N(0, 1): the sample std lies in [0.7, 1.3] with probability > 0.999 (fixed seed
+  // anyway).
   const double std_px = std::sqrt(sum_sq / n);
   EXPECT_GT(std_px, 0.7);
   EXPECT_LT(std_px, 1.3);
@@ -147,7 +150,8 @@ TEST(GtCorners, ClearErrors) {
   e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
   EXPECT_NE(e.find("object 2 is not in"), std::string::npos) << e;
 
-  WriteText(dir / "objects_gt.json", R"({"objects": [{"id": 1, "class": "sofa"}, {"id": 2, "class": "tag"}]})");
+  WriteText(dir / "objects_gt.json",
+            R"({"objects": [{"id": 1, "class": "sofa"}, {"id": 2, "class": "tag"}]})");
   e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
   EXPECT_NE(e.find("unknown class \"sofa\""), std::string::npos) << e;
 
@@ -155,7 +159,8 @@ TEST(GtCorners, ClearErrors) {
   e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
   EXPECT_NE(e.find("not valid JSON"), std::string::npos) << e;
 
-  WriteText(dir / "objects_gt.json", R"({"objects": [{"id": 1, "class": "door"}, {"id": 2, "class": "tag"}]})");
+  WriteText(dir / "objects_gt.json",
+            R"({"objects": [{"id": 1, "class": "door"}, {"id": 2, "class": "tag"}]})");
   WriteText(dir / "observations_gt.csv", "0,1,1,2,3,4,5,6,7,8,1\n0,1,1,2,3,4,5,6,7\n");
   e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
   EXPECT_NE(e.find("observations_gt.csv:2"), std::string::npos) << e;

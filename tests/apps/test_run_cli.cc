@@ -24,33 +24,35 @@ void ExpectOneLineError(const test::CommandResult& r, const std::string& what) {
 
 TEST(RunCli, MissingInput) {
   const fs::path dir = test::ScratchDir();
-  ExpectOneLineError(test::RunFsp("run " + (dir / "nope").string() + " --out " + (dir / "out").string()),
-                     "nope");
+  ExpectOneLineError(
+      test::RunFsp("run " + (dir / "nope").string() + " --out " + (dir / "out").string()), "nope");
 }
 
 TEST(RunCli, GtCornersNeedsARenderedSequence) {
   const fs::path dir = test::ScratchDir();
   test::MakeEuroc(dir / "seq", 3);
-  ExpectOneLineError(test::RunFsp("run " + (dir / "seq").string() + " --frontend gt-corners --out " +
-                                  (dir / "out").string()),
-                     "gt-corners needs a rendered sequence: " + (dir / "seq" / "observations_gt.csv").string() +
-                         " not found");
+  ExpectOneLineError(test::RunFsp("run " + (dir / "seq").string() +
+                                  " --frontend gt-corners --out " + (dir / "out").string()),
+                     "gt-corners needs a rendered sequence: " +
+                         (dir / "seq" / "observations_gt.csv").string() + " not found");
 }
 
 TEST(RunCli, BadConfig) {
   const fs::path dir = test::ScratchDir();
   test::MakeEuroc(dir / "seq", 3);
   test::WriteText(dir / "bad.yaml", "estimator:\n  window_size: -3\n");
-  ExpectOneLineError(test::RunFsp("run " + (dir / "seq").string() + " --config " + (dir / "bad.yaml").string() +
-                                  " --out " + (dir / "out").string()),
+  ExpectOneLineError(test::RunFsp("run " + (dir / "seq").string() + " --config " +
+                                  (dir / "bad.yaml").string() + " --out " + (dir / "out").string()),
                      "bad.yaml:2: estimator.window_size: must be >= 2, got -3");
   test::WriteText(dir / "unknown.yaml", "frontend:\n  gt_corners:\n    sigma: 2\n");
-  ExpectOneLineError(test::RunFsp("run " + (dir / "seq").string() + " --config " +
-                                  (dir / "unknown.yaml").string() + " --out " + (dir / "out").string()),
-                     "unknown.yaml:3: frontend.gt_corners.sigma: unknown key");
-  ExpectOneLineError(test::RunFsp("run " + (dir / "seq").string() + " --config " + (dir / "none.yaml").string() +
-                                  " --out " + (dir / "out").string()),
-                     "none.yaml");
+  ExpectOneLineError(
+      test::RunFsp("run " + (dir / "seq").string() + " --config " +
+                   (dir / "unknown.yaml").string() + " --out " + (dir / "out").string()),
+      "unknown.yaml:3: frontend.gt_corners.sigma: unknown key");
+  ExpectOneLineError(
+      test::RunFsp("run " + (dir / "seq").string() + " --config " + (dir / "none.yaml").string() +
+                   " --out " + (dir / "out").string()),
+      "none.yaml");
 }
 
 TEST(RunCli, PrintConfigShowsTheDefaults) {
@@ -90,7 +92,8 @@ TEST(BenchGate, ChecksBoundsAndTargets) {
 }
 
 TEST(BenchGate, RepositoryThresholdsParse) {
-  const std::vector<GateCheck> checks = ReadGate(std::string(FSP_SOURCE_DIR) + "/assets/bench/thresholds.yaml");
+  const std::vector<GateCheck> checks =
+      ReadGate(std::string(FSP_SOURCE_DIR) + "/assets/bench/thresholds.yaml");
   EXPECT_GE(checks.size(), 8u);
 }
 

@@ -1,5 +1,5 @@
-// The `fsp run` configuration: default.yaml lists every key with the C++ defaults; bad files fail with
-// the file, line and key named.
+// The `fsp run` configuration: default.yaml lists every key with the C++ defaults; bad files fail
+// with the file, line and key named.
 #include <functional>
 #include <set>
 #include <string>
@@ -39,7 +39,8 @@ void CollectKeys(const YAML::Node& node, const std::string& prefix, std::set<std
 TEST(RunConfig, DefaultYamlParsesToTheDefaultOptions) {
   const RunConfig parsed = ReadRunConfig(kDefaultYaml);
   std::string diff;
-  EXPECT_TRUE(SameValues(parsed, RunConfig(), &diff)) << "default.yaml differs from the C++ default: " << diff;
+  EXPECT_TRUE(SameValues(parsed, RunConfig(), &diff))
+      << "default.yaml differs from the C++ default: " << diff;
   // Spot checks against the structs themselves (not through the config table).
   const backend::EstimatorOptions defaults;
   EXPECT_EQ(parsed.estimator.window_size, defaults.window_size);
@@ -56,13 +57,15 @@ TEST(RunConfig, DefaultYamlListsEveryKeyOnce) {
   const std::vector<std::string> keys = RunConfigKeys();
   const std::set<std::string> known(keys.begin(), keys.end());
   EXPECT_EQ(known.size(), keys.size());
-  for (const std::string& k : keys) EXPECT_TRUE(in_file.count(k)) << k << " is missing from default.yaml";
-  for (const std::string& k : in_file) EXPECT_TRUE(known.count(k)) << k << " in default.yaml is not a key";
+  for (const std::string& k : keys)
+    EXPECT_TRUE(in_file.count(k)) << k << " is missing from default.yaml";
+  for (const std::string& k : in_file)
+    EXPECT_TRUE(known.count(k)) << k << " in default.yaml is not a key";
 }
 
-// A tripwire, not a law: the config table (apps/run_config.cc Fields) lists the Options fields by hand.
-// When an Options struct grows, this fails: add the new field to Fields() and to default.yaml, then
-// update the size here.
+// A tripwire, not a law: the config table (apps/run_config.cc Fields) lists the Options fields by
+// hand. When an Options struct grows, this fails: add the new field to Fields() and to
+// default.yaml, then update the size here.
 TEST(RunConfig, OptionsStructsHaveTheFieldsTheConfigKnows) {
   EXPECT_EQ(sizeof(backend::EstimatorOptions), 352u) << "EstimatorOptions changed";
   EXPECT_EQ(sizeof(backend::FspFactorOptions), 16u) << "FspFactorOptions changed";
@@ -74,7 +77,8 @@ TEST(RunConfig, OptionsStructsHaveTheFieldsTheConfigKnows) {
 
 TEST(RunConfig, ValuesAreApplied) {
   const RunConfig c = ParseRunConfig(
-      "estimator:\n  window_size: 7\n  mode: batch\n  landmarks: fhp\n  robust: {type: cauchy, k_sigma: 3}\n"
+      "estimator:\n  window_size: 7\n  mode: batch\n  landmarks: fhp\n  robust: {type: cauchy, "
+      "k_sigma: 3}\n"
       "  single_view_init:\n    refine: false\nimu:\n  gyroscope_noise_density: 1.0e-3\n"
       "frontend:\n  gt_corners:\n    pixel_sigma: 0\n    seed: 42\n",
       "cfg.yaml");

@@ -15,23 +15,28 @@
 namespace fsp::test {
 
 // p_W(t) = (a sin(0.9 t), b cos(0.7 t) + c, 0.3 sin(1.3 t)),
-// R_W_B(t) = Rz(ψ) Ry(θ) Rx(φ), ψ = 0.8 sin(0.5 t) + 0.3 t, θ = 0.25 sin(0.9 t), φ = 0.3 sin(1.1 t).
-// Body angular velocity ω_B = φ̇ e_x + Rx(φ)ᵀ(θ̇ e_y + Ry(θ)ᵀ ψ̇ e_z) (from Rᵀ Ṙ = [ω_B]×);
+// R_W_B(t) = Rz(ψ) Ry(θ) Rx(φ), ψ = 0.8 sin(0.5 t) + 0.3 t, θ = 0.25 sin(0.9 t), φ = 0.3 sin(1.1
+// t). Body angular velocity ω_B = φ̇ e_x + Rx(φ)ᵀ(θ̇ e_y + Ry(θ)ᵀ ψ̇ e_z) (from Rᵀ Ṙ = [ω_B]×);
 // specific force a_B = R_W_Bᵀ (p̈_W − g_W), g_W = (0, 0, −9.81).
 struct AnalyticTrajectory {
   double a = 1.5, b = 1.0, c = 0.5;
   double gravity = 9.81;
 
-  Vec3 Position(double t) const { return Vec3(a * std::sin(0.9 * t), b * std::cos(0.7 * t) + c, 0.3 * std::sin(1.3 * t)); }
+  Vec3 Position(double t) const {
+    return Vec3(a * std::sin(0.9 * t), b * std::cos(0.7 * t) + c, 0.3 * std::sin(1.3 * t));
+  }
   Vec3 Velocity(double t) const {
-    return Vec3(0.9 * a * std::cos(0.9 * t), -0.7 * b * std::sin(0.7 * t), 0.39 * std::cos(1.3 * t));
+    return Vec3(0.9 * a * std::cos(0.9 * t), -0.7 * b * std::sin(0.7 * t),
+                0.39 * std::cos(1.3 * t));
   }
   Vec3 Acceleration(double t) const {
-    return Vec3(-0.81 * a * std::sin(0.9 * t), -0.49 * b * std::cos(0.7 * t), -0.507 * std::sin(1.3 * t));
+    return Vec3(-0.81 * a * std::sin(0.9 * t), -0.49 * b * std::cos(0.7 * t),
+                -0.507 * std::sin(1.3 * t));
   }
   void Angles(double t, Vec3* e, Vec3* e_dot) const {
     *e = Vec3(0.3 * std::sin(1.1 * t), 0.25 * std::sin(0.9 * t), 0.8 * std::sin(0.5 * t) + 0.3 * t);
-    *e_dot = Vec3(0.33 * std::cos(1.1 * t), 0.225 * std::cos(0.9 * t), 0.4 * std::cos(0.5 * t) + 0.3);
+    *e_dot =
+        Vec3(0.33 * std::cos(1.1 * t), 0.225 * std::cos(0.9 * t), 0.4 * std::cos(0.5 * t) + 0.3);
   }
   Mat3 Rotation(double t) const {
     Vec3 e, ed;
@@ -41,8 +46,9 @@ struct AnalyticTrajectory {
   Vec3 Omega(double t) const {
     Vec3 e, ed;
     Angles(t, &e, &ed);
-    return ed.x() * Vec3::UnitX() + RotX(e.x()).transpose() * (ed.y() * Vec3::UnitY() +
-                                                              RotY(e.y()).transpose() * (ed.z() * Vec3::UnitZ()));
+    return ed.x() * Vec3::UnitX() +
+           RotX(e.x()).transpose() *
+               (ed.y() * Vec3::UnitY() + RotY(e.y()).transpose() * (ed.z() * Vec3::UnitZ()));
   }
   Vec3 SpecificForce(double t) const {
     return Rotation(t).transpose() * (Acceleration(t) - Vec3(0.0, 0.0, -gravity));
@@ -50,7 +56,8 @@ struct AnalyticTrajectory {
   Rigid3 Pose(double t) const { return Rigid3(Rotation(t), Position(t)); }
 
   // State at t with biases (bg, ba).
-  backend::KeyframeState State(double t, const Vec3& bg = Vec3::Zero(), const Vec3& ba = Vec3::Zero()) const {
+  backend::KeyframeState State(double t, const Vec3& bg = Vec3::Zero(),
+                               const Vec3& ba = Vec3::Zero()) const {
     backend::KeyframeState k;
     k.t_ns = static_cast<int64_t>(std::llround(t * 1e9));
     k.SetT_W_B(Pose(t));
@@ -76,7 +83,8 @@ inline std::vector<ImuSample> SampleImu(const AnalyticTrajectory& traj, double t
   const double dt = 1.0 / o.rate_hz;
   std::uniform_real_distribution<double> u(-o.jitter, o.jitter);
   std::normal_distribution<double> n(0.0, 1.0);
-  const double sg = o.gyro_density * std::sqrt(o.rate_hz), sa = o.acc_density * std::sqrt(o.rate_hz);
+  const double sg = o.gyro_density * std::sqrt(o.rate_hz),
+               sa = o.acc_density * std::sqrt(o.rate_hz);
   for (double t = t0; t <= t1 + 1e-12;) {
     ImuSample s;
     s.t_ns = static_cast<int64_t>(std::llround(t * 1e9));

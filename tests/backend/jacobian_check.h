@@ -1,17 +1,17 @@
 // Shared Jacobian test helper for every Ceres factor of fsp_backend.
 //
-// CheckJacobians compares a cost function's analytic Jacobians with central differences taken in the
-// TANGENT space of each parameter block's manifold:
+// CheckJacobians compares a cost function's analytic Jacobians with central differences taken in
+// the TANGENT space of each parameter block's manifold:
 //   numeric  J_t(:, k) = [r(x ⊞ h e_k) − r(x ⊞ −h e_k)] / 2h
 //   analytic J_t       = J_ambient · PlusJacobian(x)          (what Ceres itself uses)
-// and reports the worst entry. The error of an entry is |a − n| / max(|n|, 1e-3·max|J_block|, 1e-9),
-// so tiny entries of a block with large ones are judged against the block's scale.
+// and reports the worst entry. The error of an entry is |a − n| / max(|n|, 1e-3·max|J_block|,
+// 1e-9), so tiny entries of a block with large ones are judged against the block's scale.
 // ExpectJacobiansOk additionally runs ceres::GradientChecker with the same manifolds.
 //
 // Usage:
 //   std::vector<double*> params = {pose_i, sb_i, pose_j, sb_j};
-//   std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, nullptr, &pose_manifold, nullptr};
-//   EXPECT_TRUE(fsp::test::ExpectJacobiansOk(cost, params, manifolds, 1e-6));
+//   std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, nullptr, &pose_manifold,
+//   nullptr}; EXPECT_TRUE(fsp::test::ExpectJacobiansOk(cost, params, manifolds, 1e-6));
 #pragma once
 
 #include <algorithm>
@@ -21,11 +21,11 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
 #include <ceres/cost_function.h>
 #include <ceres/gradient_checker.h>
 #include <ceres/manifold.h>
 #include <gtest/gtest.h>
+#include <Eigen/Core>
 
 namespace fsp::test {
 
@@ -41,20 +41,22 @@ struct JacobianCheckResult {
   std::string Describe() const {
     std::ostringstream os;
     os << "worst Jacobian entry: block " << worst_block << " (" << worst_row << ", " << worst_col
-       << ") analytic " << worst_analytic << " numeric " << worst_numeric << " rel.err " << worst_error;
+       << ") analytic " << worst_analytic << " numeric " << worst_numeric << " rel.err "
+       << worst_error;
     return os.str();
   }
 };
 
-inline Eigen::VectorXd EvaluateResiduals(const ceres::CostFunction& cost, const std::vector<double*>& params,
-                                         bool* ok) {
+inline Eigen::VectorXd EvaluateResiduals(const ceres::CostFunction& cost,
+                                         const std::vector<double*>& params, bool* ok) {
   Eigen::VectorXd r(cost.num_residuals());
   *ok = cost.Evaluate(params.data(), r.data(), nullptr) && *ok;
   return r;
 }
 
 // manifolds[i] == nullptr means Euclidean. `step` is the tangent step h.
-inline JacobianCheckResult CheckJacobians(const ceres::CostFunction& cost, const std::vector<double*>& params,
+inline JacobianCheckResult CheckJacobians(const ceres::CostFunction& cost,
+                                          const std::vector<double*>& params,
                                           const std::vector<const ceres::Manifold*>& manifolds,
                                           double step = 1e-6) {
   JacobianCheckResult res;
@@ -124,11 +126,10 @@ inline JacobianCheckResult CheckJacobians(const ceres::CostFunction& cost, const
 
 // Both checks; prints the worst entry of each. `tolerance` is the relative tolerance of
 // CheckJacobians; GradientChecker gets `gradient_checker_precision` (its own relative measure).
-inline ::testing::AssertionResult ExpectJacobiansOk(const ceres::CostFunction& cost,
-                                                    const std::vector<double*>& params,
-                                                    const std::vector<const ceres::Manifold*>& manifolds,
-                                                    double tolerance = 1e-6, double step = 1e-6,
-                                                    double gradient_checker_precision = 1e-5) {
+inline ::testing::AssertionResult ExpectJacobiansOk(
+    const ceres::CostFunction& cost, const std::vector<double*>& params,
+    const std::vector<const ceres::Manifold*>& manifolds, double tolerance = 1e-6,
+    double step = 1e-6, double gradient_checker_precision = 1e-5) {
   const JacobianCheckResult res = CheckJacobians(cost, params, manifolds, step);
   std::cout << "[jacobian_check] " << res.Describe() << "\n";
   if (!res.evaluated) return ::testing::AssertionFailure() << "cost function failed to evaluate";
@@ -143,8 +144,8 @@ inline ::testing::AssertionResult ExpectJacobiansOk(const ceres::CostFunction& c
   ceres::GradientChecker checker(&cost, &manifolds, nd);
   ceres::GradientChecker::ProbeResults probe;
   const bool gc_ok = checker.Probe(params.data(), gradient_checker_precision, &probe);
-  std::cout << "[jacobian_check] ceres::GradientChecker max relative error " << probe.maximum_relative_error
-            << "\n";
+  std::cout << "[jacobian_check] ceres::GradientChecker max relative error "
+            << probe.maximum_relative_error << "\n";
   if (!gc_ok) {
     return ::testing::AssertionFailure() << "ceres::GradientChecker: " << probe.error_log;
   }

@@ -1,5 +1,5 @@
-// Small deterministic scenes for the landmark tests: a rectangle (T_W_O, w, h) and cameras that look at
-// it from its front side (+z_O), with a seeded generator.
+// Small deterministic scenes for the landmark tests: a rectangle (T_W_O, w, h) and cameras that
+// look at it from its front side (+z_O), with a seeded generator.
 #pragma once
 
 #include <array>
@@ -59,9 +59,9 @@ inline TestObject RandomObject(std::mt19937& rng, double w_lo = 0.3, double w_hi
   return o;
 }
 
-// Camera (x right, y down, z forward) at `distance` from the object's centre, in a direction tilted by
-// up to `max_tilt_rad` away from the object's normal, looking at the centre with a roll of up to `roll_rad`.
-// CameraAtTilt: the same with the tilt exactly `tilt_rad` (random azimuth).
+// Camera (x right, y down, z forward) at `distance` from the object's centre, in a direction tilted
+// by up to `max_tilt_rad` away from the object's normal, looking at the centre with a roll of up to
+// `roll_rad`. CameraAtTilt: the same with the tilt exactly `tilt_rad` (random azimuth).
 inline Rigid3 CameraAtTilt(std::mt19937& rng, const TestObject& o, double distance, double tilt,
                            double roll_rad = 0.1) {
   const Mat3 R_W_O = o.T_W_O.R();
@@ -81,8 +81,8 @@ inline Rigid3 CameraAtTilt(std::mt19937& rng, const TestObject& o, double distan
   return Rigid3(R_W_C, p_W_C);
 }
 
-inline Rigid3 CameraLookingAt(std::mt19937& rng, const TestObject& o, double distance, double max_tilt_rad,
-                              double roll_rad = 0.1) {
+inline Rigid3 CameraLookingAt(std::mt19937& rng, const TestObject& o, double distance,
+                              double max_tilt_rad, double roll_rad = 0.1) {
   const double tilt = Uniform(rng, 0.0, max_tilt_rad);
   return CameraAtTilt(rng, o, distance, tilt, roll_rad);
 }
@@ -106,17 +106,19 @@ inline Corners AddNoise(std::mt19937& rng, const Corners& c, double sigma_px) {
 }
 
 // A non-trivial camera-to-body calibration (rotation of tens of degrees, lever arm of centimetres).
-inline Rigid3 TestT_B_C() { return Rigid3(RotFromRpy(-1.50, 0.05, -1.55), Vec3(0.065, -0.021, 0.009)); }
+inline Rigid3 TestT_B_C() {
+  return Rigid3(RotFromRpy(-1.50, 0.05, -1.55), Vec3(0.065, -0.021, 0.009));
+}
 
-// CheckJacobians (jacobian_check.h: central differences in the tangent space) plus ceres::GradientChecker.
-// GradientChecker differentiates with Ridders' method, whose first step is
+// CheckJacobians (jacobian_check.h: central differences in the tangent space) plus
+// ceres::GradientChecker. GradientChecker differentiates with Ridders' method, whose first step is
 // ridders_relative_initial_step_size · |x| (default 1e-2, NOT relative_step_size); at 1e-2 the
-// extrapolation on quaternion blocks stops early with errors ~1e-3 even for exact Jacobians, so it is
-// set to 1e-5 here.
-inline ::testing::AssertionResult ExpectFactorJacobiansOk(const ceres::CostFunction& cost,
-                                                          const std::vector<double*>& params,
-                                                          const std::vector<const ceres::Manifold*>& manifolds,
-                                                          double tolerance, double gc_precision = 1e-6) {
+// extrapolation on quaternion blocks stops early with errors ~1e-3 even for exact Jacobians, so it
+// is set to 1e-5 here.
+inline ::testing::AssertionResult ExpectFactorJacobiansOk(
+    const ceres::CostFunction& cost, const std::vector<double*>& params,
+    const std::vector<const ceres::Manifold*>& manifolds, double tolerance,
+    double gc_precision = 1e-6) {
   const JacobianCheckResult res = CheckJacobians(cost, params, manifolds, 1e-6);
   if (!res.evaluated) return ::testing::AssertionFailure() << "cost function failed to evaluate";
   if (!(res.worst_error <= tolerance)) return ::testing::AssertionFailure() << res.Describe();

@@ -1,5 +1,6 @@
-// FHP landmark (the paper's baseline): utilities, per-corner factor Jacobians (tangent-space central
-// differences + ceres::GradientChecker), ω-independence at C = F, cheirality, end-to-end with known poses.
+// FHP landmark (the paper's baseline): utilities, per-corner factor Jacobians (tangent-space
+// central differences + ceres::GradientChecker), ω-independence at C = F, cheirality, end-to-end
+// with known poses.
 #include <array>
 #include <cmath>
 #include <iostream>
@@ -54,11 +55,12 @@ TEST(FhpLandmark, CornersSizeAndPoseFromCorners) {
     EXPECT_NEAR(s.landmark.Height(), s.object.height, 1e-12);
     EXPECT_LT((s.landmark.T_W_O(s.T_W_F).Matrix() - s.object.T_W_O.Matrix()).norm(), 1e-12);
     // Same geometry through the FSP representation.
-    const FspLandmark fsp =
-        FspLandmark::FromObject(s.T_W_F.Inverse() * s.object.T_W_O, s.object.width, s.object.height);
+    const FspLandmark fsp = FspLandmark::FromObject(s.T_W_F.Inverse() * s.object.T_W_O,
+                                                    s.object.width, s.object.height);
     const FhpLandmark from_fsp = FhpLandmark::FromFsp(fsp);
     for (int j = 0; j < 4; ++j) {
-      for (int k = 0; k < 3; ++k) EXPECT_NEAR(from_fsp.corner[j][k], s.landmark.corner[j][k], 1e-12);
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR(from_fsp.corner[j][k], s.landmark.corner[j][k], 1e-12);
     }
   }
 }
@@ -76,7 +78,8 @@ TEST(FhpFactor, JacobiansMatchNumericAndGradientChecker) {
     FhpFactor factor(obs[j], K, s.T_B_C, o);
     std::vector<double*> params = {s.pose_cam, s.pose_anchor, s.landmark.corner[j]};
     std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, &pose_manifold, nullptr};
-    EXPECT_TRUE(test::ExpectFactorJacobiansOk(factor, params, manifolds, 1e-5)) << "trial " << trial;
+    EXPECT_TRUE(test::ExpectFactorJacobiansOk(factor, params, manifolds, 1e-5))
+        << "trial " << trial;
   }
 }
 
@@ -90,7 +93,8 @@ TEST(FhpAnchorFactor, JacobiansMatchNumericAndGradientChecker) {
     FhpAnchorFactor factor(obs[j], K, FspFactorOptions());
     std::vector<double*> params = {s.landmark.corner[j]};
     std::vector<const ceres::Manifold*> manifolds = {nullptr};
-    EXPECT_TRUE(test::ExpectFactorJacobiansOk(factor, params, manifolds, 1e-5)) << "trial " << trial;
+    EXPECT_TRUE(test::ExpectFactorJacobiansOk(factor, params, manifolds, 1e-5))
+        << "trial " << trial;
   }
 }
 
@@ -148,8 +152,8 @@ TEST(FhpFactor, ZeroResidualOnTruthAndCheirality) {
   EXPECT_FALSE(PredictFhpCorners(K, T_W_C_back, s.T_W_F, s.landmark).in_front);
 }
 
-// The baseline on the same tiny problem as the FSP end-to-end test: 4 known cameras, noise-free corners,
-// initialised from the first view with a wrong scale; width and height become exact.
+// The baseline on the same tiny problem as the FSP end-to-end test: 4 known cameras, noise-free
+// corners, initialised from the first view with a wrong scale; width and height become exact.
 TEST(FhpFactor, EndToEndKnownPosesRecoversMetricSize) {
   std::mt19937 rng(61);
   const Mat3 K = test::TestK();
@@ -157,23 +161,28 @@ TEST(FhpFactor, EndToEndKnownPosesRecoversMetricSize) {
   for (int trial = 0; trial < 5; ++trial) {
     TestObject object = test::RandomObject(rng, 1.2, 2.0);
     std::vector<Rigid3> T_W_C;
-    for (int k = 0; k < 4; ++k) T_W_C.push_back(test::CameraLookingAt(rng, object, test::Uniform(rng, 3.0, 5.0), 0.6));
+    for (int k = 0; k < 4; ++k)
+      T_W_C.push_back(test::CameraLookingAt(rng, object, test::Uniform(rng, 3.0, 5.0), 0.6));
     std::vector<std::array<double, 7>> poses(T_W_C.size());
-    for (size_t k = 0; k < T_W_C.size(); ++k) PoseToBlock(T_W_C[k] * T_B_C.Inverse(), poses[k].data());
+    for (size_t k = 0; k < T_W_C.size(); ++k)
+      PoseToBlock(T_W_C[k] * T_B_C.Inverse(), poses[k].data());
 
     const Corners first = test::ProjectCorners(K, T_W_C[0], object);
-    const SingleViewInitSummary init = InitializeFspSingleView(first, K, ObjectClass::kWindow, SingleViewInitOptions());
+    const SingleViewInitSummary init =
+        InitializeFspSingleView(first, K, ObjectClass::kWindow, SingleViewInitOptions());
     ASSERT_TRUE(init.success()) << init.reason;
     FhpLandmark l = FhpLandmark::FromFsp(init.landmark);
     ASSERT_GT(std::abs(l.Width() - object.width), 0.05);
 
     ceres::Problem problem;
-    for (int j = 0; j < 4; ++j) problem.AddResidualBlock(new FhpAnchorFactor(first[j], K, FspFactorOptions()), nullptr, l.corner[j]);
+    for (int j = 0; j < 4; ++j)
+      problem.AddResidualBlock(new FhpAnchorFactor(first[j], K, FspFactorOptions()), nullptr,
+                               l.corner[j]);
     for (size_t k = 1; k < T_W_C.size(); ++k) {
       const Corners obs = test::ProjectCorners(K, T_W_C[k], object);
       for (int j = 0; j < 4; ++j) {
-        problem.AddResidualBlock(new FhpFactor(obs[j], K, T_B_C, FspFactorOptions()), nullptr, poses[k].data(),
-                                 poses[0].data(), l.corner[j]);
+        problem.AddResidualBlock(new FhpFactor(obs[j], K, T_B_C, FspFactorOptions()), nullptr,
+                                 poses[k].data(), poses[0].data(), l.corner[j]);
       }
     }
     for (auto& p : poses) {
@@ -189,8 +198,9 @@ TEST(FhpFactor, EndToEndKnownPosesRecoversMetricSize) {
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem, &summary);
     std::cout << "[end-to-end fhp] trial " << trial << ": width " << object.width << " init "
-              << FhpLandmark::FromFsp(init.landmark).Width() << " -> " << l.Width() << ", height " << object.height
-              << " -> " << l.Height() << ", iterations " << summary.iterations.size() << "\n";
+              << FhpLandmark::FromFsp(init.landmark).Width() << " -> " << l.Width() << ", height "
+              << object.height << " -> " << l.Height() << ", iterations "
+              << summary.iterations.size() << "\n";
     EXPECT_NEAR(l.Width(), object.width, 1e-6);
     EXPECT_NEAR(l.Height(), object.height, 1e-6);
     const auto corners = l.CornersW(T_W_C[0]);

@@ -1,6 +1,6 @@
-// FSP landmark utilities and the FSP reprojection factor (both variants): conventions, Jacobians against
-// central differences in the tangent space + ceres::GradientChecker, ω-independence at C = F,
-// cheirality, and a small end-to-end solve with known poses.
+// FSP landmark utilities and the FSP reprojection factor (both variants): conventions, Jacobians
+// against central differences in the tangent space + ceres::GradientChecker, ω-independence at C =
+// F, cheirality, and a small end-to-end solve with known poses.
 #include <cmath>
 #include <iostream>
 #include <memory>
@@ -38,7 +38,8 @@ Scene MakeScene(std::mt19937& rng) {
   s.T_B_C = test::TestT_B_C();
   s.T_W_F = test::CameraLookingAt(rng, s.object, test::Uniform(rng, 2.0, 6.0), 1.0, 0.3);
   s.T_W_C = test::CameraLookingAt(rng, s.object, test::Uniform(rng, 2.0, 6.0), 1.0, 0.3);
-  s.landmark = FspLandmark::FromObject(s.T_W_F.Inverse() * s.object.T_W_O, s.object.width, s.object.height);
+  s.landmark =
+      FspLandmark::FromObject(s.T_W_F.Inverse() * s.object.T_W_O, s.object.width, s.object.height);
   PoseToBlock(s.T_W_C * s.T_B_C.Inverse(), s.pose_cam);
   PoseToBlock(s.T_W_F * s.T_B_C.Inverse(), s.pose_anchor);
   return s;
@@ -80,8 +81,8 @@ TEST(FspLandmark, SizeJacobianAndSigma) {
 }
 
 TEST(FspLandmark, LeftRotationJacobianMatchesCeresPlus) {
-  // J · PlusJacobian(q) = 2 I for ceres::EigenQuaternionManifold (Plus = Exp(2δ) on the left), and the
-  // radial direction maps to zero: the Jacobian differentiates R(q/|q|).
+  // J · PlusJacobian(q) = 2 I for ceres::EigenQuaternionManifold (Plus = Exp(2δ) on the left), and
+  // the radial direction maps to zero: the Jacobian differentiates R(q/|q|).
   std::mt19937 rng(3);
   ceres::EigenQuaternionManifold m;
   for (int trial = 0; trial < 10; ++trial) {
@@ -125,8 +126,10 @@ TEST(FspFactor, JacobiansMatchNumericAndGradientChecker) {
     o.sigma_px = 1.3;
     FspFactor factor(obs, K, s.T_B_C, o);
     std::vector<double*> params = {s.pose_cam, s.pose_anchor, s.landmark.q_F_O, s.landmark.x};
-    std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, &pose_manifold, &quat_manifold, nullptr};
-    EXPECT_TRUE(test::ExpectFactorJacobiansOk(factor, params, manifolds, 1e-5)) << "trial " << trial;
+    std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, &pose_manifold, &quat_manifold,
+                                                     nullptr};
+    EXPECT_TRUE(test::ExpectFactorJacobiansOk(factor, params, manifolds, 1e-5))
+        << "trial " << trial;
   }
 }
 
@@ -140,7 +143,8 @@ TEST(FspAnchorFactor, JacobiansMatchNumericAndGradientChecker) {
     FspAnchorFactor factor(obs, K, FspFactorOptions());
     std::vector<double*> params = {s.landmark.q_F_O, s.landmark.x};
     std::vector<const ceres::Manifold*> manifolds = {&quat_manifold, nullptr};
-    EXPECT_TRUE(test::ExpectFactorJacobiansOk(factor, params, manifolds, 1e-5)) << "trial " << trial;
+    EXPECT_TRUE(test::ExpectFactorJacobiansOk(factor, params, manifolds, 1e-5))
+        << "trial " << trial;
   }
 }
 
@@ -153,7 +157,8 @@ TEST(FspFactor, AtAnchorPredictionIndependentOfOmegaAndEqualsAnchorVariant) {
     FspFactor general(obs, K, s.T_B_C, FspFactorOptions());
     FspAnchorFactor anchor(obs, K, FspFactorOptions());
     double pose_copy[7];
-    std::copy(s.pose_anchor, s.pose_anchor + 7, pose_copy);  // C = F, two blocks with the same value
+    std::copy(s.pose_anchor, s.pose_anchor + 7,
+              pose_copy);  // C = F, two blocks with the same value
     double r_ref[8];
     {
       const double* p[2] = {s.landmark.q_F_O, s.landmark.x};
@@ -210,9 +215,9 @@ TEST(RobustLoss, KneeAtKSigmaRmsPerCoordinate) {
   EXPECT_FALSE(why.empty());
 }
 
-// One object seen from 4 known cameras, noise-free corners. Initialised from the first view with a wrong
-// ω (class prior for a door: 0.9 m, the object is not 0.9 m wide), solved with the poses fixed: the
-// metric width and height become exact.
+// One object seen from 4 known cameras, noise-free corners. Initialised from the first view with a
+// wrong ω (class prior for a door: 0.9 m, the object is not 0.9 m wide), solved with the poses
+// fixed: the metric width and height become exact.
 TEST(FspFactor, EndToEndKnownPosesRecoversMetricSize) {
   std::mt19937 rng(31);
   const Mat3 K = test::TestK();
@@ -220,22 +225,26 @@ TEST(FspFactor, EndToEndKnownPosesRecoversMetricSize) {
   for (int trial = 0; trial < 5; ++trial) {
     TestObject object = test::RandomObject(rng, 1.2, 2.0);
     std::vector<Rigid3> T_W_C;
-    for (int k = 0; k < 4; ++k) T_W_C.push_back(test::CameraLookingAt(rng, object, test::Uniform(rng, 3.0, 5.0), 0.6));
+    for (int k = 0; k < 4; ++k)
+      T_W_C.push_back(test::CameraLookingAt(rng, object, test::Uniform(rng, 3.0, 5.0), 0.6));
     std::vector<std::array<double, 7>> poses(T_W_C.size());
-    for (size_t k = 0; k < T_W_C.size(); ++k) PoseToBlock(T_W_C[k] * T_B_C.Inverse(), poses[k].data());
+    for (size_t k = 0; k < T_W_C.size(); ++k)
+      PoseToBlock(T_W_C[k] * T_B_C.Inverse(), poses[k].data());
 
-    const SingleViewInitSummary init =
-        InitializeFspSingleView(test::ProjectCorners(K, T_W_C[0], object), K, ObjectClass::kDoor, SingleViewInitOptions());
+    const SingleViewInitSummary init = InitializeFspSingleView(
+        test::ProjectCorners(K, T_W_C[0], object), K, ObjectClass::kDoor, SingleViewInitOptions());
     ASSERT_TRUE(init.success()) << init.reason;
     FspLandmark l = init.landmark;
     ASSERT_GT(std::abs(l.Width() - object.width), 0.2);  // the prior is wrong
 
     ceres::Problem problem;
     problem.AddResidualBlock(
-        new FspAnchorFactor(test::ProjectCorners(K, T_W_C[0], object), K, FspFactorOptions()), nullptr, l.q_F_O, l.x);
+        new FspAnchorFactor(test::ProjectCorners(K, T_W_C[0], object), K, FspFactorOptions()),
+        nullptr, l.q_F_O, l.x);
     for (size_t k = 1; k < T_W_C.size(); ++k) {
-      problem.AddResidualBlock(new FspFactor(test::ProjectCorners(K, T_W_C[k], object), K, T_B_C, FspFactorOptions()),
-                               nullptr, poses[k].data(), poses[0].data(), l.q_F_O, l.x);
+      problem.AddResidualBlock(
+          new FspFactor(test::ProjectCorners(K, T_W_C[k], object), K, T_B_C, FspFactorOptions()),
+          nullptr, poses[k].data(), poses[0].data(), l.q_F_O, l.x);
     }
     for (auto& p : poses) {
       problem.SetManifold(p.data(), MakePoseManifold().release());
@@ -250,9 +259,9 @@ TEST(FspFactor, EndToEndKnownPosesRecoversMetricSize) {
     so.parameter_tolerance = 1e-16;
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem, &summary);
-    std::cout << "[end-to-end fsp] trial " << trial << ": width " << object.width << " init " << init.landmark.Width()
-              << " -> " << l.Width() << ", height " << object.height << " -> " << l.Height() << ", iterations "
-              << summary.iterations.size() << "\n";
+    std::cout << "[end-to-end fsp] trial " << trial << ": width " << object.width << " init "
+              << init.landmark.Width() << " -> " << l.Width() << ", height " << object.height
+              << " -> " << l.Height() << ", iterations " << summary.iterations.size() << "\n";
     EXPECT_NEAR(l.Width(), object.width, 1e-6);
     EXPECT_NEAR(l.Height(), object.height, 1e-6);
     const auto corners = l.CornersW(T_W_C[0]);

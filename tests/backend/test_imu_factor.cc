@@ -17,7 +17,9 @@ namespace {
 
 using test::AnalyticTrajectory;
 
-int64_t Ns(double t) { return static_cast<int64_t>(std::llround(t * 1e9)); }
+int64_t Ns(double t) {
+  return static_cast<int64_t>(std::llround(t * 1e9));
+}
 
 struct Fixture {
   AnalyticTrajectory traj;
@@ -46,8 +48,8 @@ TEST(ImuFactor, ZeroResidualAtTruth) {
   ImuFactor factor(f.pre);
   // The linearisation point is b = 0 but the true biases are used: first-order correction.
   const Vec15 r = factor.UnwhitenedResidual(f.ki.pose, f.ki.speed_bias, f.kj.pose, f.kj.speed_bias);
-  std::printf("[imu_factor] residual at truth: |r_φ| %.2e |r_v| %.2e |r_p| %.2e\n", r.segment<3>(0).norm(),
-              r.segment<3>(3).norm(), r.segment<3>(6).norm());
+  std::printf("[imu_factor] residual at truth: |r_φ| %.2e |r_v| %.2e |r_p| %.2e\n",
+              r.segment<3>(0).norm(), r.segment<3>(3).norm(), r.segment<3>(6).norm());
   EXPECT_LT(r.segment<3>(0).norm(), 1e-5);
   // |δb_a| = 0.23 m/s² is large for a first-order correction (second-order terms ~ 1e-4).
   EXPECT_LT(r.segment<3>(3).norm(), 1e-3);
@@ -56,7 +58,8 @@ TEST(ImuFactor, ZeroResidualAtTruth) {
   // Beyond the threshold the estimator re-integrates; the factor sees it through the shared pointer
   // and the residual drops to the discretisation level.
   EXPECT_TRUE(f.pre->ReintegrateIfNeeded(f.bg, f.ba));
-  const Vec15 r2 = factor.UnwhitenedResidual(f.ki.pose, f.ki.speed_bias, f.kj.pose, f.kj.speed_bias);
+  const Vec15 r2 =
+      factor.UnwhitenedResidual(f.ki.pose, f.ki.speed_bias, f.kj.pose, f.kj.speed_bias);
   EXPECT_LT(r2.head<9>().norm(), 5e-6);
 }
 
@@ -80,10 +83,12 @@ TEST(ImuFactor, AnalyticJacobiansMatchNumeric) {
     }
     ImuFactor factor(f.pre);
     std::vector<double*> params = {a.pose, a.speed_bias, b.pose, b.speed_bias};
-    std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, nullptr, &pose_manifold, nullptr};
+    std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, nullptr, &pose_manifold,
+                                                     nullptr};
     const auto res = test::CheckJacobians(factor, params, manifolds);
     worst = std::max(worst, res.worst_error);
-    EXPECT_TRUE(test::ExpectJacobiansOk(factor, params, manifolds, 1e-5, 1e-6, 1e-4)) << "trial " << trial;
+    EXPECT_TRUE(test::ExpectJacobiansOk(factor, params, manifolds, 1e-5, 1e-6, 1e-4))
+        << "trial " << trial;
   }
   std::printf("[imu_factor] worst relative Jacobian error over 8 random states: %.2e\n", worst);
 }
@@ -97,7 +102,8 @@ TEST(ImuFactor, SolveRecoversPerturbedEndState) {
   std::copy(p, p + 7, b.pose);
   VelocityOf(b.speed_bias) += Vec3(0.3, -0.2, 0.1);
   ceres::Problem problem;
-  problem.AddResidualBlock(new ImuFactor(f.pre), nullptr, a.pose, a.speed_bias, b.pose, b.speed_bias);
+  problem.AddResidualBlock(new ImuFactor(f.pre), nullptr, a.pose, a.speed_bias, b.pose,
+                           b.speed_bias);
   problem.SetManifold(a.pose, MakePoseManifold().release());
   problem.SetManifold(b.pose, MakePoseManifold().release());
   problem.SetParameterBlockConstant(a.pose);

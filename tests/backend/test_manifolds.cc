@@ -23,7 +23,8 @@ void RandomPose(std::mt19937& rng, double* pose) {
 
 TEST(PoseManifold, ConventionWorldTranslationLeftHalfAngleRotation) {
   // Pins Ceres' convention (ceres/manifold.h): a tangent step (δp = x̂, 0) moves the position along
-  // WORLD x; (0, δθ) rotates by Exp(2δθ) on the LEFT (about the WORLD axis, twice the tangent norm).
+  // WORLD x; (0, δθ) rotates by Exp(2δθ) on the LEFT (about the WORLD axis, twice the tangent
+  // norm).
   double x[7];
   PoseToBlock(Rigid3(RotZ(M_PI / 2), Vec3(1, 2, 3)), x);
   PoseManifold m;
@@ -123,7 +124,8 @@ TEST(QuaternionManifold, MinusJacobianAndGenericPath) {
   ceres::ProductManifold<ceres::EuclideanManifold<1>, ceres::EigenQuaternionManifold> other;
   for (int trial = 0; trial < 10; ++trial) {
     // q0 near q: Ceres' Minus is atan2-based and leaves the principal branch when the relative
-    // rotation exceeds π (q ⊗ q0⁻¹ with w < 0); ours always takes the short way (the two agree here).
+    // rotation exceeds π (q ⊗ q0⁻¹ with w < 0); ours always takes the short way (the two agree
+    // here).
     const Quat q = ExpQuat(RandomVec(rng, 1.0)), q0 = ExpQuat(RandomVec(rng, 0.5)) * q;
     const Eigen::MatrixXd J = MinusTangentJacobian(&m, q.coeffs().data(), q0.coeffs().data(), 4);
     Mat3 Jn;
@@ -138,7 +140,8 @@ TEST(QuaternionManifold, MinusJacobianAndGenericPath) {
       for (int i = 0; i < 3; ++i) Jn(i, k) = (mp[i] - mm[i]) / 2e-6;
     }
     EXPECT_LT((J - Jn).cwiseAbs().maxCoeff(), 1e-8);
-    double x5[5] = {0.3, q.x(), q.y(), q.z(), q.w()}, y5[5] = {-1.0, q0.x(), q0.y(), q0.z(), q0.w()};
+    double x5[5] = {0.3, q.x(), q.y(), q.z(), q.w()},
+           y5[5] = {-1.0, q0.x(), q0.y(), q0.z(), q0.w()};
     const Eigen::MatrixXd Jg = MinusTangentJacobian(&other, x5, y5, 5);
     EXPECT_NEAR(Jg(0, 0), 1.0, 1e-9);
     EXPECT_LT((Jg.bottomRightCorner<3, 3>() - J).cwiseAbs().maxCoeff(), 1e-8);

@@ -6,10 +6,10 @@
 #include <memory>
 #include <random>
 
-#include <Eigen/Dense>
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 #include <gtest/gtest.h>
+#include <Eigen/Dense>
 
 #include "backend/imu_test_util.h"
 #include "backend/jacobian_check.h"
@@ -27,7 +27,8 @@ using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eig
 // r = A [x_1; ...; x_k] − b over Euclidean blocks.
 class LinearCost : public ceres::CostFunction {
  public:
-  LinearCost(Eigen::MatrixXd A, Eigen::VectorXd b, const std::vector<int>& sizes) : A_(std::move(A)), b_(std::move(b)) {
+  LinearCost(Eigen::MatrixXd A, Eigen::VectorXd b, const std::vector<int>& sizes)
+      : A_(std::move(A)), b_(std::move(b)) {
     set_num_residuals(static_cast<int>(b_.size()));
     for (int s : sizes) mutable_parameter_block_sizes()->push_back(s);
   }
@@ -76,14 +77,15 @@ void SolveQuietly(ceres::Problem* problem) {
 void LinearEquivalence(bool deficient) {
   std::mt19937 rng(deficient ? 9 : 8);
   double x1[3] = {0.3, -0.2, 1.0}, x2[2] = {1, 2}, x3[4] = {0, 0, 0, 0};
-  Eigen::MatrixXd A1 = RandomMatrix(rng, 5, 5), A2 = RandomMatrix(rng, 4, 7), A3 = RandomMatrix(rng, 6, 6);
+  Eigen::MatrixXd A1 = RandomMatrix(rng, 5, 5), A2 = RandomMatrix(rng, 4, 7),
+                  A3 = RandomMatrix(rng, 6, 6);
   if (deficient) {  // x1[2] enters no residual: H_mm is singular
     A1.col(2).setZero();
     A2.col(2).setZero();
   }
-  LinearCost c1(A1, RandomMatrix(rng, 5, 1), {3, 2});   // x1, x2
-  LinearCost c2(A2, RandomMatrix(rng, 4, 1), {3, 4});   // x1, x3
-  LinearCost c3(A3, RandomMatrix(rng, 6, 1), {2, 4});   // x2, x3
+  LinearCost c1(A1, RandomMatrix(rng, 5, 1), {3, 2});  // x1, x2
+  LinearCost c2(A2, RandomMatrix(rng, 4, 1), {3, 4});  // x1, x3
+  LinearCost c3(A3, RandomMatrix(rng, 6, 1), {2, 4});  // x2, x3
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem full(po);
@@ -100,7 +102,8 @@ void LinearEquivalence(bool deficient) {
   std::swap_ranges(x1, x1 + 3, f1);
   std::swap_ranges(x2, x2 + 2, f2);
   std::swap_ranges(x3, x3 + 4, f3);  // now x* holds the initial values, f* the full solution
-  const MarginalizationSummary ms = Marginalize({{&c1, nullptr, {x1, x2}}, {&c2, nullptr, {x1, x3}}}, {x1}, {});
+  const MarginalizationSummary ms =
+      Marginalize({{&c1, nullptr, {x1, x2}}, {&c2, nullptr, {x1, x3}}}, {x1}, {});
   ASSERT_TRUE(ms.success) << ms.reason;
   EXPECT_EQ(ms.marginalized_dim, 3);
   EXPECT_EQ(ms.kept_dim, 6);
@@ -113,13 +116,19 @@ void LinearEquivalence(bool deficient) {
   double err = 0.0;
   for (int i = 0; i < 2; ++i) err = std::max(err, std::abs(x2[i] - f2[i]));
   for (int i = 0; i < 4; ++i) err = std::max(err, std::abs(x3[i] - f3[i]));
-  std::printf("[marginalization] linear problem%s: kept estimate vs full solve max |diff| %.2e (rank H* %d)\n",
-              deficient ? " (H_mm rank-deficient)" : "", err, ms.rank);
+  std::printf(
+      "[marginalization] linear problem%s: kept estimate vs full solve max |diff| %.2e (rank H* "
+      "%d)\n",
+      deficient ? " (H_mm rank-deficient)" : "", err, ms.rank);
   EXPECT_LT(err, 1e-9);
 }
 
-TEST(Marginalization, LinearProblemMatchesFullSolve) { LinearEquivalence(false); }
-TEST(Marginalization, RankDeficientMarginalBlock) { LinearEquivalence(true); }
+TEST(Marginalization, LinearProblemMatchesFullSolve) {
+  LinearEquivalence(false);
+}
+TEST(Marginalization, RankDeficientMarginalBlock) {
+  LinearEquivalence(true);
+}
 
 // Bearing of a world point seen from the body: r = (R_W_Bᵀ(l − p)/|l − p| − b) / σ.
 struct BearingResidual {
@@ -151,7 +160,8 @@ struct Window {
   std::vector<FspLandmark> objects;
   std::vector<int> anchor_of;
   ceres::EigenQuaternionManifold quat_manifold;
-  Rigid3 T_B_C{Mat3((Mat3() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished().transpose()), Vec3(0.05, 0.0, 0.02)};
+  Rigid3 T_B_C{Mat3((Mat3() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished().transpose()),
+               Vec3(0.05, 0.0, 0.02)};
   Mat3 K = (Mat3() << 450, 0, 370, 0, 450, 250, 0, 0, 1).finished();
 
   explicit Window(int n_kf, bool fsp = false, double spacing = 0.4) {
@@ -171,9 +181,10 @@ struct Window {
     po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem = std::make_unique<ceres::Problem>(po);
     for (int k = 0; k + 1 < n_kf; ++k) {
-      pre.push_back(std::make_shared<ImuPreintegration>(opt, imu, kf[k].t_ns, kf[k + 1].t_ns, bg, ba));
-      problem->AddResidualBlock(new ImuFactor(pre.back()), nullptr, kf[k].pose, kf[k].speed_bias, kf[k + 1].pose,
-                                kf[k + 1].speed_bias);
+      pre.push_back(
+          std::make_shared<ImuPreintegration>(opt, imu, kf[k].t_ns, kf[k + 1].t_ns, bg, ba));
+      problem->AddResidualBlock(new ImuFactor(pre.back()), nullptr, kf[k].pose, kf[k].speed_bias,
+                                kf[k + 1].pose, kf[k + 1].speed_bias);
     }
     for (int k = 0; k < n_kf; ++k) problem->SetManifold(kf[k].pose, &pose_manifold);
     if (fsp) {
@@ -195,10 +206,11 @@ struct Window {
           const CornerPrediction pred = PredictFspCorners(K, kf[k].T_W_B() * T_B_C, T_W_F, L);
           EXPECT_TRUE(pred.in_front) << "object " << o << " keyframe " << k;
           if (k == a) {
-            problem->AddResidualBlock(new FspAnchorFactor(pred.uv, K, FspFactorOptions{}), nullptr, L.q_F_O, L.x);
+            problem->AddResidualBlock(new FspAnchorFactor(pred.uv, K, FspFactorOptions{}), nullptr,
+                                      L.q_F_O, L.x);
           } else {
-            problem->AddResidualBlock(new FspFactor(pred.uv, K, T_B_C, FspFactorOptions{}), nullptr, kf[k].pose,
-                                      kf[a].pose, L.q_F_O, L.x);
+            problem->AddResidualBlock(new FspFactor(pred.uv, K, T_B_C, FspFactorOptions{}), nullptr,
+                                      kf[k].pose, kf[a].pose, L.q_F_O, L.x);
           }
         }
       }
@@ -217,9 +229,10 @@ struct Window {
 };
 
 // Tangent-space Hessian of a set of residual blocks over `order` (all their parameter blocks).
-Eigen::MatrixXd TangentHessian(const std::vector<ResidualBlockInput>& blocks, const std::vector<double*>& order,
-                               const std::unordered_map<const double*, const ceres::Manifold*>& manifolds,
-                               const std::unordered_map<const double*, int>& ambient) {
+Eigen::MatrixXd TangentHessian(
+    const std::vector<ResidualBlockInput>& blocks, const std::vector<double*>& order,
+    const std::unordered_map<const double*, const ceres::Manifold*>& manifolds,
+    const std::unordered_map<const double*, int>& ambient) {
   std::unordered_map<const double*, int> offset;
   int n = 0;
   for (double* p : order) {
@@ -252,8 +265,8 @@ Eigen::MatrixXd TangentHessian(const std::vector<ResidualBlockInput>& blocks, co
     }
     for (size_t a = 0; a < Jt.size(); ++a)
       for (size_t b = 0; b < Jt.size(); ++b)
-        H.block(offset[rb.parameter_blocks[a]], offset[rb.parameter_blocks[b]], Jt[a].cols(), Jt[b].cols()) +=
-            Jt[a].transpose() * Jt[b];
+        H.block(offset[rb.parameter_blocks[a]], offset[rb.parameter_blocks[b]], Jt[a].cols(),
+                Jt[b].cols()) += Jt[a].transpose() * Jt[b];
   }
   return H;
 }
@@ -267,13 +280,14 @@ Eigen::VectorXd ScaledEigenvalues(const Eigen::MatrixXd& H) {
 
 // The 4 gauge directions in the Ceres tangent coordinates: translation (δp = δl = e_k) and yaw
 // (Exp(2δθ) R = Rz(ε) R  =>  δθ = ε/2 e_z;  δp = ε e_z × p, δv = ε e_z × v, δl = ε e_z × l).
-Eigen::MatrixXd GaugeDirections(const std::vector<double*>& order, const std::unordered_map<const double*, int>& kind,
-                                int n) {
+Eigen::MatrixXd GaugeDirections(const std::vector<double*>& order,
+                                const std::unordered_map<const double*, int>& kind, int n) {
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n, 4);
   int off = 0;
   for (double* p : order) {
     const int k = kind.at(p);  // 0 pose, 1 speed_bias, 2 point, 3 q_F_O, 4 FSP x (anchor-relative)
-    if (k == 3 || k == 4) {  // FSP parameters are relative to their anchor: the gauge leaves them alone
+    if (k == 3 ||
+        k == 4) {  // FSP parameters are relative to their anchor: the gauge leaves them alone
       off += k == 3 ? 3 : 5;
       continue;
     }
@@ -321,7 +335,8 @@ TEST(Marginalization, WindowHessianHasExactlyFourDimensionalNullspace) {
   auto report = [&](const char* what, const Eigen::MatrixXd& H, const std::vector<double*>& order) {
     const Eigen::VectorXd ev = ScaledEigenvalues(H);
     const double max_ev = ev.maxCoeff();
-    std::printf("[marginalization] %s: dim %d, smallest scaled eigenvalues / max:", what, static_cast<int>(H.rows()));
+    std::printf("[marginalization] %s: dim %d, smallest scaled eigenvalues / max:", what,
+                static_cast<int>(H.rows()));
     for (int i = 0; i < 6; ++i) std::printf(" %.1e", ev[i] / max_ev);
     std::printf("\n");
     int null_dim = 0;
@@ -331,20 +346,25 @@ TEST(Marginalization, WindowHessianHasExactlyFourDimensionalNullspace) {
     // ...and the nullspace is exactly the gauge (x, y, z, yaw).
     const Eigen::MatrixXd G = GaugeDirections(order, kind, static_cast<int>(H.rows()));
     const double rel = (H * G).norm() / (H.norm() * G.norm());
-    std::printf("[marginalization] %s: |H G| / (|H||G|) = %.1e for the 4 gauge directions\n", what, rel);
+    std::printf("[marginalization] %s: |H G| / (|H||G|) = %.1e for the 4 gauge directions\n", what,
+                rel);
     EXPECT_LT(rel, 1e-12) << what;
   };
-  report("window of 6 keyframes", TangentHessian(blocks, all_blocks, manifolds, ambient), all_blocks);
+  report("window of 6 keyframes", TangentHessian(blocks, all_blocks, manifolds, ambient),
+         all_blocks);
 
   // Marginalise the oldest keyframe (pose + speed_bias) at the (true) estimate.
   std::vector<ResidualBlockInput> touching;
   std::unordered_map<const double*, const ceres::Manifold*> touching_manifolds;
-  CollectResidualBlocks(*w.problem, {w.kf[0].pose, w.kf[0].speed_bias}, &touching, &touching_manifolds);
+  CollectResidualBlocks(*w.problem, {w.kf[0].pose, w.kf[0].speed_bias}, &touching,
+                        &touching_manifolds);
   const MarginalizationSummary ms =
       Marginalize(touching, {w.kf[0].pose, w.kf[0].speed_bias}, touching_manifolds);
   ASSERT_TRUE(ms.success) << ms.reason;
-  std::printf("[marginalization] oldest keyframe: %d residual blocks, dropped dim %d, kept dim %d, rank %d\n",
-              ms.num_residual_blocks, ms.marginalized_dim, ms.kept_dim, ms.rank);
+  std::printf(
+      "[marginalization] oldest keyframe: %d residual blocks, dropped dim %d, kept dim %d, rank "
+      "%d\n",
+      ms.num_residual_blocks, ms.marginalized_dim, ms.kept_dim, ms.rank);
   EXPECT_EQ(ms.marginalized_dim, 15);
   EXPECT_EQ(ms.rank_marginalized, 15);
   // Kept: pose_1, speed_bias_1 and the 12 points. The information the prior carries has rank
@@ -361,7 +381,8 @@ TEST(Marginalization, WindowHessianHasExactlyFourDimensionalNullspace) {
     }
   }
   const std::vector<double*> kept_order(all_blocks.begin() + 2, all_blocks.end());
-  report("after marginalising the oldest keyframe", TangentHessian(after, kept_order, manifolds, ambient), kept_order);
+  report("after marginalising the oldest keyframe",
+         TangentHessian(after, kept_order, manifolds, ambient), kept_order);
   // Noise-free window at the truth: the prior's residual is at the level of the whitened IMU
   // discretisation error (|r0| ~ 1e-5), not zero.
   EXPECT_LT(prior.prior().r0.norm(), 1e-3);
@@ -393,7 +414,8 @@ TEST(Marginalization, WindowWithFspRectanglesHasExactlyFourDimensionalNullspace)
   auto check = [&](const char* what, const Eigen::MatrixXd& H, const std::vector<double*>& ord) {
     const Eigen::VectorXd ev = ScaledEigenvalues(H);
     const double max_ev = ev.maxCoeff();
-    std::printf("[marginalization] FSP %s: dim %d, smallest scaled eigenvalues / max:", what, static_cast<int>(H.rows()));
+    std::printf("[marginalization] FSP %s: dim %d, smallest scaled eigenvalues / max:", what,
+                static_cast<int>(H.rows()));
     for (int i = 0; i < 6; ++i) std::printf(" %.1e", ev[i] / max_ev);
     std::printf("\n");
     int null_dim = 0;
@@ -402,7 +424,8 @@ TEST(Marginalization, WindowWithFspRectanglesHasExactlyFourDimensionalNullspace)
     const Eigen::MatrixXd G = GaugeDirections(ord, kind, static_cast<int>(H.rows()));
     EXPECT_LT((H * G).norm() / (H.norm() * G.norm()), 1e-12) << what;
   };
-  check("window of 5 keyframes, 6 rectangles", TangentHessian(blocks, order, manifolds, ambient), order);
+  check("window of 5 keyframes, 6 rectangles", TangentHessian(blocks, order, manifolds, ambient),
+        order);
   std::vector<ResidualBlockInput> touching;
   std::unordered_map<const double*, const ceres::Manifold*> tm;
   CollectResidualBlocks(*w.problem, {w.kf[0].pose, w.kf[0].speed_bias}, &touching, &tm);
@@ -418,7 +441,8 @@ TEST(Marginalization, WindowWithFspRectanglesHasExactlyFourDimensionalNullspace)
     }
   }
   const std::vector<double*> kept(order.begin() + 2, order.end());
-  check("after marginalising the oldest keyframe", TangentHessian(after, kept, manifolds, ambient), kept);
+  check("after marginalising the oldest keyframe", TangentHessian(after, kept, manifolds, ambient),
+        kept);
 }
 
 TEST(Marginalization, PriorFactorJacobians) {
@@ -426,7 +450,8 @@ TEST(Marginalization, PriorFactorJacobians) {
   std::vector<ResidualBlockInput> touching;
   std::unordered_map<const double*, const ceres::Manifold*> manifolds;
   CollectResidualBlocks(*w.problem, {w.kf[0].pose, w.kf[0].speed_bias}, &touching, &manifolds);
-  const MarginalizationSummary ms = Marginalize(touching, {w.kf[0].pose, w.kf[0].speed_bias}, manifolds);
+  const MarginalizationSummary ms =
+      Marginalize(touching, {w.kf[0].pose, w.kf[0].speed_bias}, manifolds);
   ASSERT_TRUE(ms.success) << ms.reason;
   MarginalizationPriorFactor prior(ms.prior);
   // Move every kept block away from the linearisation point (rotations by up to ~0.6 rad).
@@ -451,7 +476,8 @@ TEST(Marginalization, PriorFactorJacobians) {
   }
   EXPECT_TRUE(test::ExpectJacobiansOk(prior, params, ms_list, 1e-6));
   // At the linearisation point the residual is r0.
-  for (size_t b = 0; b < params.size(); ++b) std::copy(ms.prior->x0[b].data(), ms.prior->x0[b].data() + ms.prior->x0[b].size(), params[b]);
+  for (size_t b = 0; b < params.size(); ++b)
+    std::copy(ms.prior->x0[b].data(), ms.prior->x0[b].data() + ms.prior->x0[b].size(), params[b]);
   Eigen::VectorXd r(ms.prior->r0.size());
   ASSERT_TRUE(prior.Evaluate(params.data(), r.data(), nullptr));
   EXPECT_LT((r - ms.prior->r0).norm(), 1e-15);

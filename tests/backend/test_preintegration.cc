@@ -1,12 +1,12 @@
-// IMU preintegration: exactness on an analytic trajectory (unequal dt, boundary interpolation), real
-// EuRoC V1_02 flight against Vicon ground truth, Monte-Carlo covariance consistency, bias Jacobians
-// and first-order bias correction vs re-integration.
+// IMU preintegration: exactness on an analytic trajectory (unequal dt, boundary interpolation),
+// real EuRoC V1_02 flight against Vicon ground truth, Monte-Carlo covariance consistency, bias
+// Jacobians and first-order bias correction vs re-integration.
 #include <algorithm>
 #include <cstdio>
 #include <random>
 
-#include <Eigen/Dense>
 #include <gtest/gtest.h>
+#include <Eigen/Dense>
 
 #include "backend/imu_test_util.h"
 #include "fsp/backend/imu_preintegration.h"
@@ -20,22 +20,24 @@ using test::AnalyticTrajectory;
 using test::ImuSamplingOptions;
 using test::SampleImu;
 
-int64_t Ns(double t) { return static_cast<int64_t>(std::llround(t * 1e9)); }
+int64_t Ns(double t) {
+  return static_cast<int64_t>(std::llround(t * 1e9));
+}
 
 struct DeltaError {
   double rot = 0, vel = 0, pos = 0;
 };
 
 // Preintegrated (ΔR, Δv, Δp) vs the trajectory's true relative motion between t_i and t_j.
-DeltaError CompareWithTruth(const ImuPreintegration& pre, const PreintegratedDelta& d, const AnalyticTrajectory& traj,
-                            double ti, double tj) {
+DeltaError CompareWithTruth(const ImuPreintegration& pre, const PreintegratedDelta& d,
+                            const AnalyticTrajectory& traj, double ti, double tj) {
   const Vec3 g(0, 0, -traj.gravity);
   const double dt = tj - ti;
   const Mat3 Ri = traj.Rotation(ti);
   const Mat3 dR_true = Ri.transpose() * traj.Rotation(tj);
   const Vec3 dv_true = Ri.transpose() * (traj.Velocity(tj) - traj.Velocity(ti) - g * dt);
-  const Vec3 dp_true =
-      Ri.transpose() * (traj.Position(tj) - traj.Position(ti) - traj.Velocity(ti) * dt - 0.5 * g * dt * dt);
+  const Vec3 dp_true = Ri.transpose() * (traj.Position(tj) - traj.Position(ti) -
+                                         traj.Velocity(ti) * dt - 0.5 * g * dt * dt);
   EXPECT_NEAR(pre.dt(), dt, 1e-9);
   DeltaError e;
   e.rot = LogSO3(dR_true.transpose() * d.dR.toRotationMatrix()).norm();
@@ -58,15 +60,18 @@ TEST(Preintegration, NoiseFreeAnalyticTrajectoryIsExact) {
     const double tj = ti + 1.0;
     // Keyframe times are rounded to ns like real ones.
     const ImuPreintegration pre(opt, imu, Ns(ti), Ns(tj), so.bg, so.ba);
-    const DeltaError e = CompareWithTruth(pre, pre.Corrected(so.bg, so.ba), traj, 1e-9 * Ns(ti), 1e-9 * Ns(tj));
+    const DeltaError e =
+        CompareWithTruth(pre, pre.Corrected(so.bg, so.ba), traj, 1e-9 * Ns(ti), 1e-9 * Ns(tj));
     worst_p = std::max(worst_p, e.pos);
     worst_v = std::max(worst_v, e.vel);
     worst_r = std::max(worst_r, e.rot);
     EXPECT_EQ(pre.extrapolated_s(), 0.0);
   }
-  std::printf("[preintegration] analytic, 200 Hz ±20%% jitter, 1 s: worst |ΔR err| %.2e rad, |Δv err| %.2e m/s, "
-              "|Δp err| %.2e m\n",
-              worst_r, worst_v, worst_p);
+  std::printf(
+      "[preintegration] analytic, 200 Hz ±20%% jitter, 1 s: worst |ΔR err| %.2e rad, |Δv err| %.2e "
+      "m/s, "
+      "|Δp err| %.2e m\n",
+      worst_r, worst_v, worst_p);
   // Midpoint scheme, second order: errors ~ dt² (see the 200/400 Hz ratio below).
   EXPECT_LT(worst_p, 5e-6);
   EXPECT_LT(worst_v, 2e-5);
@@ -78,14 +83,15 @@ TEST(Preintegration, NoiseFreeAnalyticTrajectoryIsExact) {
   fine.rate_hz = 400.0;
   ImuSamplingOptions coarse = fine;
   coarse.rate_hz = 200.0;
-  const auto e200 = CompareWithTruth(ImuPreintegration(opt, SampleImu(traj, 0, 6, coarse), Ns(2), Ns(3), so.bg, so.ba),
-                                     ImuPreintegration(opt, SampleImu(traj, 0, 6, coarse), Ns(2), Ns(3), so.bg, so.ba)
-                                         .Corrected(so.bg, so.ba),
-                                     traj, 2, 3);
+  const auto e200 = CompareWithTruth(
+      ImuPreintegration(opt, SampleImu(traj, 0, 6, coarse), Ns(2), Ns(3), so.bg, so.ba),
+      ImuPreintegration(opt, SampleImu(traj, 0, 6, coarse), Ns(2), Ns(3), so.bg, so.ba)
+          .Corrected(so.bg, so.ba),
+      traj, 2, 3);
   const ImuPreintegration p400(opt, SampleImu(traj, 0, 6, fine), Ns(2), Ns(3), so.bg, so.ba);
   const auto e400 = CompareWithTruth(p400, p400.Corrected(so.bg, so.ba), traj, 2, 3);
-  std::printf("[preintegration] |Δv err| 200 Hz %.2e, 400 Hz %.2e (ratio %.2f)\n", e200.vel, e400.vel,
-              e200.vel / e400.vel);
+  std::printf("[preintegration] |Δv err| 200 Hz %.2e, 400 Hz %.2e (ratio %.2f)\n", e200.vel,
+              e400.vel, e200.vel / e400.vel);
   EXPECT_GT(e200.vel / e400.vel, 3.0);
 }
 
@@ -133,10 +139,12 @@ TEST(Preintegration, RealEurocFlightAgainstGroundTruth) {
       return v[v.size() / 2];
     };
     auto maxv = [](const std::vector<double>& v) { return *std::max_element(v.begin(), v.end()); };
-    std::printf("[preintegration] EuRoC V1_02, %.2f s windows (%zu): position err median %.2f cm max %.2f cm, "
-                "velocity median %.3f max %.3f m/s, rotation median %.3f max %.3f deg\n",
-                window, pos_err.size(), 100 * median(pos_err), 100 * maxv(pos_err), median(vel_err), maxv(vel_err),
-                median(rot_err) * 180 / M_PI, maxv(rot_err) * 180 / M_PI);
+    std::printf(
+        "[preintegration] EuRoC V1_02, %.2f s windows (%zu): position err median %.2f cm max %.2f "
+        "cm, "
+        "velocity median %.3f max %.3f m/s, rotation median %.3f max %.3f deg\n",
+        window, pos_err.size(), 100 * median(pos_err), 100 * maxv(pos_err), median(vel_err),
+        maxv(vel_err), median(rot_err) * 180 / M_PI, maxv(rot_err) * 180 / M_PI);
     // Loose but meaningful bounds (the numbers above are what it achieves; ignoring gravity or the
     // rotation would give metres): position grows ~ window², rotation ~ window.
     const double w2 = window * window;
@@ -156,8 +164,8 @@ TEST(Preintegration, MonteCarloCovarianceIsConsistent) {
   so.gyro_density = opt.noise.gyroscope_noise_density;
   so.acc_density = opt.noise.accelerometer_noise_density;
   const double ti = 1.0, tj = 2.0;
-  const ImuPreintegration ref(opt, SampleImu(traj, 0.9, 2.1, ImuSamplingOptions{}), Ns(ti), Ns(tj), Vec3::Zero(),
-                              Vec3::Zero());
+  const ImuPreintegration ref(opt, SampleImu(traj, 0.9, 2.1, ImuSamplingOptions{}), Ns(ti), Ns(tj),
+                              Vec3::Zero(), Vec3::Zero());
   const Mat9& P = ref.covariance();
   const Eigen::LDLT<Mat9> ldlt(P);
   std::mt19937 rng(1);
@@ -165,8 +173,8 @@ TEST(Preintegration, MonteCarloCovarianceIsConsistent) {
   Mat9 emp = Mat9::Zero();
   double nees = 0.0;
   for (int k = 0; k < n; ++k) {
-    const ImuPreintegration noisy(opt, SampleImu(traj, 0.9, 2.1, so, &rng), Ns(ti), Ns(tj), Vec3::Zero(),
-                                  Vec3::Zero());
+    const ImuPreintegration noisy(opt, SampleImu(traj, 0.9, 2.1, so, &rng), Ns(ti), Ns(tj),
+                                  Vec3::Zero(), Vec3::Zero());
     Eigen::Matrix<double, 9, 1> e;
     // ΔR̃ = ΔR Exp(δφ)  =>  δφ = Log(ΔRᵀ ΔR̃)
     e << LogQuat(ref.delta_R().conjugate() * noisy.delta_R()), noisy.delta_v() - ref.delta_v(),
@@ -176,10 +184,13 @@ TEST(Preintegration, MonteCarloCovarianceIsConsistent) {
   }
   emp /= n;
   nees /= n;
-  std::printf("[preintegration] Monte Carlo (%d runs, 1 s): mean NEES %.3f (expected 9, σ of the mean %.2f)\n", n,
-              nees, std::sqrt(18.0 / n));
+  std::printf(
+      "[preintegration] Monte Carlo (%d runs, 1 s): mean NEES %.3f (expected 9, σ of the mean "
+      "%.2f)\n",
+      n, nees, std::sqrt(18.0 / n));
   for (int i = 0; i < 9; ++i) {
-    std::printf("  var[%d] empirical %.3e propagated %.3e ratio %.3f\n", i, emp(i, i), P(i, i), emp(i, i) / P(i, i));
+    std::printf("  var[%d] empirical %.3e propagated %.3e ratio %.3f\n", i, emp(i, i), P(i, i),
+                emp(i, i) / P(i, i));
     EXPECT_NEAR(emp(i, i) / P(i, i), 1.0, 0.15) << i;
   }
   EXPECT_NEAR(nees, 9.0, 0.6);
@@ -202,26 +213,31 @@ TEST(Preintegration, BiasJacobiansAndFirstOrderCorrection) {
     ImuPreintegration p(opt, imu, Ns(0.7), Ns(1.7), bg0 + dbg, ba0 + dba);
     ImuPreintegration m(opt, imu, Ns(0.7), Ns(1.7), bg0 - dbg, ba0 - dba);
     Jn.block<3, 1>(0, c) = (LogQuat(pre.delta_R().conjugate() * p.delta_R()) -
-                            LogQuat(pre.delta_R().conjugate() * m.delta_R())) / (2 * h);
+                            LogQuat(pre.delta_R().conjugate() * m.delta_R())) /
+                           (2 * h);
     Jn.block<3, 1>(3, c) = (p.delta_v() - m.delta_v()) / (2 * h);
     Jn.block<3, 1>(6, c) = (p.delta_p() - m.delta_p()) / (2 * h);
   }
   const double jac_err = (Ja - Jn).cwiseAbs().maxCoeff() / Jn.cwiseAbs().maxCoeff();
-  std::printf("[preintegration] bias Jacobians vs re-integration differences: rel. err %.2e\n", jac_err);
+  std::printf("[preintegration] bias Jacobians vs re-integration differences: rel. err %.2e\n",
+              jac_err);
   EXPECT_LT(jac_err, 1e-6);
 
   // Small bias change: first-order correction vs re-integration. The remaining difference is the
   // second-order term (~|δb|²), so halving the change divides it by ~4.
   auto correction_error = [&](double scale, double* change) {
-    const Vec3 bg1 = bg0 + scale * Vec3(0.003, -0.002, 0.001), ba1 = ba0 + scale * Vec3(-0.03, 0.02, 0.04);
+    const Vec3 bg1 = bg0 + scale * Vec3(0.003, -0.002, 0.001),
+               ba1 = ba0 + scale * Vec3(-0.03, 0.02, 0.04);
     const PreintegratedDelta c = pre.Corrected(bg1, ba1);
     const ImuPreintegration re(opt, imu, Ns(0.7), Ns(1.7), bg1, ba1);
     const double er = LogQuat(re.delta_R().conjugate() * c.dR).norm();
     const double ev = (re.delta_v() - c.dv).norm(), ep = (re.delta_p() - c.dp).norm();
     *change = (re.delta_v() - pre.delta_v()).norm();
-    std::printf("[preintegration] |δbg| %.1e |δba| %.1e: correction vs re-integration ΔR %.2e rad Δv %.2e m/s "
-                "Δp %.2e m (uncorrected Δv off by %.2e)\n",
-                (bg1 - bg0).norm(), (ba1 - ba0).norm(), er, ev, ep, *change);
+    std::printf(
+        "[preintegration] |δbg| %.1e |δba| %.1e: correction vs re-integration ΔR %.2e rad Δv %.2e "
+        "m/s "
+        "Δp %.2e m (uncorrected Δv off by %.2e)\n",
+        (bg1 - bg0).norm(), (ba1 - ba0).norm(), er, ev, ep, *change);
     return Eigen::Vector3d(er, ev, ep);
   };
   double change1 = 0, change2 = 0;
@@ -249,8 +265,8 @@ TEST(Preintegration, BiasJacobiansAndFirstOrderCorrection) {
 TEST(Preintegration, CovarianceAndInformationAreWellFormed) {
   const AnalyticTrajectory traj;
   PreintegrationOptions opt;
-  const ImuPreintegration pre(opt, SampleImu(traj, 0.0, 2.0, ImuSamplingOptions{}), Ns(0.5), Ns(0.55),
-                              Vec3::Zero(), Vec3::Zero());
+  const ImuPreintegration pre(opt, SampleImu(traj, 0.0, 2.0, ImuSamplingOptions{}), Ns(0.5),
+                              Ns(0.55), Vec3::Zero(), Vec3::Zero());
   EXPECT_EQ(pre.num_intervals(), 10);
   // sqrt_informationᵀ sqrt_information = Σ15⁻¹
   const Mat15 I = pre.sqrt_information().transpose() * pre.sqrt_information() * pre.covariance15();
@@ -258,7 +274,8 @@ TEST(Preintegration, CovarianceAndInformationAreWellFormed) {
   // Bias random walk block: σ² Δt.
   EXPECT_NEAR(pre.covariance15()(9, 9), std::pow(opt.noise.gyroscope_random_walk, 2) * 0.05, 1e-20);
   // Rotation variance after 50 ms ≈ σ_g² Δt.
-  EXPECT_NEAR(pre.covariance()(0, 0) / (std::pow(opt.noise.gyroscope_noise_density, 2) * 0.05), 1.0, 1e-4);
+  EXPECT_NEAR(pre.covariance()(0, 0) / (std::pow(opt.noise.gyroscope_noise_density, 2) * 0.05), 1.0,
+              1e-4);
   std::string why;
   PreintegrationOptions bad;
   bad.gravity = -1;

@@ -1,5 +1,5 @@
-// Exact re-anchoring: every predicted corner in every camera is unchanged (FSP and FHP), the metric size
-// is kept, F -> F' -> F is the identity, and an anchor that cannot hold the object is refused.
+// Exact re-anchoring: every predicted corner in every camera is unchanged (FSP and FHP), the metric
+// size is kept, F -> F' -> F is the identity, and an anchor that cannot hold the object is refused.
 #include <cmath>
 #include <random>
 #include <string>
@@ -28,7 +28,9 @@ ReanchorScene MakeReanchorScene(std::mt19937& rng) {
   s.object = test::RandomObject(rng, 0.3, 2.0);
   s.T_W_F = test::CameraLookingAt(rng, s.object, test::Uniform(rng, 1.5, 8.0), 1.0, 0.5);
   s.T_W_Fnew = test::CameraLookingAt(rng, s.object, test::Uniform(rng, 1.5, 8.0), 1.0, 0.5);
-  for (int k = 0; k < 5; ++k) s.cameras.push_back(test::CameraLookingAt(rng, s.object, test::Uniform(rng, 3.0, 10.0), 1.0, 0.5));
+  for (int k = 0; k < 5; ++k)
+    s.cameras.push_back(
+        test::CameraLookingAt(rng, s.object, test::Uniform(rng, 3.0, 10.0), 1.0, 0.5));
   return s;
 }
 
@@ -39,8 +41,10 @@ TEST(Reanchor, FspPredictionsUnchanged) {
   double worst_px = 0.0;
   for (int trial = 0; trial < 50; ++trial) {
     const ReanchorScene s = MakeReanchorScene(rng);
-    // A landmark that is not the truth (perturbed), to show the transform is exact for any parameters.
-    FspLandmark l = FspLandmark::FromObject(s.T_W_F.Inverse() * s.object.T_W_O, s.object.width, s.object.height);
+    // A landmark that is not the truth (perturbed), to show the transform is exact for any
+    // parameters.
+    FspLandmark l = FspLandmark::FromObject(s.T_W_F.Inverse() * s.object.T_W_O, s.object.width,
+                                            s.object.height);
     l.x[kFspLogOmega] += 0.2;
     l.x[kFspLogForm] -= 0.1;
     FspLandmark moved;
@@ -90,8 +94,8 @@ TEST(Reanchor, FhpPredictionsUnchanged) {
   double worst_px = 0.0;
   for (int trial = 0; trial < 50; ++trial) {
     const ReanchorScene s = MakeReanchorScene(rng);
-    FhpLandmark l = FhpLandmark::FromFsp(
-        FspLandmark::FromObject(s.T_W_F.Inverse() * s.object.T_W_O, s.object.width, s.object.height));
+    FhpLandmark l = FhpLandmark::FromFsp(FspLandmark::FromObject(s.T_W_F.Inverse() * s.object.T_W_O,
+                                                                 s.object.width, s.object.height));
     l.corner[2][2] += 0.15;  // not a rectangle any more: FHP does not care
     FhpLandmark moved;
     ASSERT_TRUE(ReanchorFhp(l, s.T_W_F, s.T_W_Fnew, &moved));
@@ -114,7 +118,8 @@ TEST(Reanchor, FhpPredictionsUnchanged) {
 TEST(Reanchor, RefusesAnchorThatSeesTheObjectFromBehind) {
   std::mt19937 rng(107);
   const ReanchorScene s = MakeReanchorScene(rng);
-  const FspLandmark l = FspLandmark::FromObject(s.T_W_F.Inverse() * s.object.T_W_O, s.object.width, s.object.height);
+  const FspLandmark l =
+      FspLandmark::FromObject(s.T_W_F.Inverse() * s.object.T_W_O, s.object.width, s.object.height);
   // The new anchor looks away from the object: s1 is behind it.
   const Rigid3 T_W_Fback = s.T_W_Fnew * Rigid3(RotY(M_PI), Vec3::Zero());
   FspLandmark out;

@@ -1,5 +1,6 @@
-// Single-view FSP initialisation (Zhang-He + refinement): exact recovery on noise-free corners, ω from
-// the class prior / default depth, failure reasons, and the error statistics under σ = 1 px (printed).
+// Single-view FSP initialisation (Zhang-He + refinement): exact recovery on noise-free corners, ω
+// from the class prior / default depth, failure reasons, and the error statistics under σ = 1 px
+// (printed).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -19,7 +20,9 @@ namespace {
 
 using test::TestObject;
 
-double RotationAngle(const Mat3& A, const Mat3& B) { return LogSO3(A.transpose() * B).norm(); }
+double RotationAngle(const Mat3& A, const Mat3& B) {
+  return LogSO3(A.transpose() * B).norm();
+}
 
 double Percentile(std::vector<double> v, double p) {
   std::sort(v.begin(), v.end());
@@ -33,8 +36,10 @@ TEST(SingleViewInit, NoiseFreeRecoversShapeAndRayExactly) {
   int n = 0;
   for (int trial = 0; trial < 200; ++trial) {
     const TestObject object = test::RandomObject(rng, 0.2, 2.0);
-    const Rigid3 T_W_F = test::CameraLookingAt(rng, object, test::Uniform(rng, 1.0, 10.0), 1.1, 0.4);
-    const FspLandmark truth = FspLandmark::FromObject(T_W_F.Inverse() * object.T_W_O, object.width, object.height);
+    const Rigid3 T_W_F =
+        test::CameraLookingAt(rng, object, test::Uniform(rng, 1.0, 10.0), 1.1, 0.4);
+    const FspLandmark truth =
+        FspLandmark::FromObject(T_W_F.Inverse() * object.T_W_O, object.width, object.height);
     const Corners corners = test::ProjectCorners(K, T_W_F, object);
     for (bool refine : {false, true}) {
       SingleViewInitOptions o;
@@ -74,13 +79,15 @@ TEST(SingleViewInit, OmegaFromClassPriorOrDefaultDepth) {
   EXPECT_NEAR(door.landmark.Height() / door.landmark.Width(), object.height / object.width, 1e-9);
   const SingleViewInitSummary tag = InitializeFspSingleView(corners, K, ObjectClass::kTag, o);
   EXPECT_NEAR(tag.landmark.Width(), o.width_tag_m, 1e-12);
-  const SingleViewInitSummary unknown = InitializeFspSingleView(corners, K, ObjectClass::kUnknown, o);
+  const SingleViewInitSummary unknown =
+      InitializeFspSingleView(corners, K, ObjectClass::kUnknown, o);
   ASSERT_TRUE(unknown.success());
   EXPECT_FALSE(unknown.omega_from_class_prior);
   const auto p_F = unknown.landmark.CornersF();
   EXPECT_NEAR(0.5 * (p_F[0] + p_F[2]).z(), o.default_depth_m, 1e-9);
   // The scaled object projects to the same pixels.
-  const CornerPrediction pred = PredictFspCorners(K, Rigid3::Identity(), Rigid3::Identity(), door.landmark);
+  const CornerPrediction pred =
+      PredictFspCorners(K, Rigid3::Identity(), Rigid3::Identity(), door.landmark);
   for (int j = 0; j < 4; ++j) EXPECT_LT((pred.uv[j] - corners[j]).norm(), 1e-8);
 }
 
@@ -127,13 +134,15 @@ TEST(SingleViewInit, ReportsWhyItFails) {
   // Bad input.
   {
     Corners c = {Vec2(100, 100), Vec2(200, 100), Vec2(NAN, 200), Vec2(100, 200)};
-    EXPECT_EQ(InitializeFspSingleView(c, K, ObjectClass::kUnknown, o).status, Status::kInvalidInput);
+    EXPECT_EQ(InitializeFspSingleView(c, K, ObjectClass::kUnknown, o).status,
+              Status::kInvalidInput);
     SingleViewInitOptions bad;
     bad.max_abs_cos = 0.0;
     std::string why;
     EXPECT_FALSE(bad.Check(&why));
     const Corners ok = {Vec2(100, 200), Vec2(200, 200), Vec2(200, 100), Vec2(100, 100)};
-    EXPECT_EQ(InitializeFspSingleView(ok, K, ObjectClass::kUnknown, bad).status, Status::kInvalidInput);
+    EXPECT_EQ(InitializeFspSingleView(ok, K, ObjectClass::kUnknown, bad).status,
+              Status::kInvalidInput);
     EXPECT_TRUE(InitializeFspSingleView(ok, K, ObjectClass::kUnknown, o).success());
   }
 }
@@ -150,11 +159,13 @@ NoiseStats RunNoise(std::mt19937& rng, double width, double distance, double til
   for (int t = 0; t < trials; ++t) {
     TestObject object = test::RandomObject(rng, width, width);
     const Rigid3 T_W_F = test::CameraAtTilt(rng, object, distance, tilt_rad, 0.2);
-    const FspLandmark truth = FspLandmark::FromObject(T_W_F.Inverse() * object.T_W_O, object.width, object.height);
+    const FspLandmark truth =
+        FspLandmark::FromObject(T_W_F.Inverse() * object.T_W_O, object.width, object.height);
     const Corners corners = test::AddNoise(rng, test::ProjectCorners(K, T_W_F, object), 1.0);
     std::optional<Vec3> up;
     if (use_up) up = T_W_F.R().transpose() * Vec3::UnitZ();  // world up in F
-    const SingleViewInitSummary s = InitializeFspSingleView(corners, K, ObjectClass::kUnknown, SingleViewInitOptions(), up);
+    const SingleViewInitSummary s =
+        InitializeFspSingleView(corners, K, ObjectClass::kUnknown, SingleViewInitOptions(), up);
     if (!s.success()) {
       ++st.failures;
       continue;
@@ -169,12 +180,14 @@ NoiseStats RunNoise(std::mt19937& rng, double width, double distance, double til
   return st;
 }
 
-// σ = 1 px, 200 seeded trials per configuration. Bounds are loose (about 2-3x the measured p90, see the
-// printed table); they catch a broken solver, not a tuning change.
+// σ = 1 px, 200 seeded trials per configuration. Bounds are loose (about 2-3x the measured p90, see
+// the printed table); they catch a broken solver, not a tuning change.
 TEST(SingleViewInit, NoiseOnePixelErrorsReported) {
   std::mt19937 rng(83);
-  std::printf("[single-view init, sigma 1 px, 200 trials] width  dist  tilt | angle deg med/p90 | wbar rel med/p90 "
-              "| f rel med/p90 | fail\n");
+  std::printf(
+      "[single-view init, sigma 1 px, 200 trials] width  dist  tilt | angle deg med/p90 | wbar rel "
+      "med/p90 "
+      "| f rel med/p90 | fail\n");
   for (double width : {0.3, 1.0}) {
     for (double distance : {2.0, 5.0}) {
       for (double tilt_deg : {0.0, 30.0, 60.0}) {
@@ -182,8 +195,10 @@ TEST(SingleViewInit, NoiseOnePixelErrorsReported) {
         const double a50 = Percentile(st.angle_deg, 0.5), a90 = Percentile(st.angle_deg, 0.9);
         const double w50 = Percentile(st.wbar_rel, 0.5), w90 = Percentile(st.wbar_rel, 0.9);
         const double f50 = Percentile(st.form_rel, 0.5), f90 = Percentile(st.form_rel, 0.9);
-        std::printf("[single-view init] %4.1f m %4.1f m %4.0f° | %6.2f / %6.2f | %6.4f / %6.4f | %6.4f / %6.4f | %d\n",
-                    width, distance, tilt_deg, a50, a90, w50, w90, f50, f90, st.failures);
+        std::printf(
+            "[single-view init] %4.1f m %4.1f m %4.0f° | %6.2f / %6.2f | %6.4f / %6.4f | %6.4f / "
+            "%6.4f | %d\n",
+            width, distance, tilt_deg, a50, a90, w50, w90, f50, f90, st.failures);
         // Errors scale with 1 / apparent size. Targets below ~50 px are ill-conditioned in one view
         // (the tilt is within the noise): printed only.
         const double size_px = 458.0 * width / distance;
@@ -207,11 +222,13 @@ TEST(SingleViewInit, UpDirectionStabilisesFrontoParallelTargets) {
   const double free50 = Percentile(free.angle_deg, 0.5), up50 = Percentile(up.angle_deg, 0.5);
   const double free90 = Percentile(free.angle_deg, 0.9), up90 = Percentile(up.angle_deg, 0.9);
   const double free_y90 = Percentile(free.y_axis_deg, 0.9), up_y90 = Percentile(up.y_axis_deg, 0.9);
-  std::printf("[single-view init] 0.3 m at 5 m, tilt 3°: R_F_O error med/p90 %.2f/%.2f deg without up, "
-              "%.2f/%.2f deg with up; y-axis error p90 %.2f -> %.2f deg\n",
-              free50, free90, up50, up90, free_y90, up_y90);
+  std::printf(
+      "[single-view init] 0.3 m at 5 m, tilt 3°: R_F_O error med/p90 %.2f/%.2f deg without up, "
+      "%.2f/%.2f deg with up; y-axis error p90 %.2f -> %.2f deg\n",
+      free50, free90, up50, up90, free_y90, up_y90);
   EXPECT_LT(up50, 0.8 * free50);
-  // The y axis is pinned to "up" (prior σ 0.02 rad); the rotation about the vertical stays as uncertain.
+  // The y axis is pinned to "up" (prior σ 0.02 rad); the rotation about the vertical stays as
+  // uncertain.
   EXPECT_LT(up_y90, 3.0);
   EXPECT_GT(free_y90, 10.0);
   EXPECT_EQ(up.failures, 0);

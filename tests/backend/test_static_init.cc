@@ -17,10 +17,12 @@ TEST(StaticInit, RecoversGyroBiasAndGravityOnEurocV101) {
   const auto imu = test::ReadEurocImu(dir + "/mav0/imu0/data.csv");
   StaticInitOptions opt;
   const StaticInitSummary s = StaticInitialize(imu, opt);
-  std::printf("[static_init] V1_01: %s%s, %d samples, gyro mean (%.5f, %.5f, %.5f), |acc| %.3f, block std gyro "
-              "%.4f acc %.3f\n",
-              s.success ? "ok" : "refused: ", s.reason.c_str(), s.num_samples, s.gyro_mean.x(), s.gyro_mean.y(),
-              s.gyro_mean.z(), s.acc_mean.norm(), s.gyro_block_std, s.acc_block_std);
+  std::printf(
+      "[static_init] V1_01: %s%s, %d samples, gyro mean (%.5f, %.5f, %.5f), |acc| %.3f, block std "
+      "gyro "
+      "%.4f acc %.3f\n",
+      s.success ? "ok" : "refused: ", s.reason.c_str(), s.num_samples, s.gyro_mean.x(),
+      s.gyro_mean.y(), s.gyro_mean.z(), s.acc_mean.norm(), s.gyro_block_std, s.acc_block_std);
   ASSERT_TRUE(s.success) << s.reason;
   EXPECT_EQ(s.num_samples, 200);
   // Mean gyro over the 95 still frames (README): (-0.00201, 0.02092, 0.07815); vicon2gt bias
@@ -51,7 +53,8 @@ TEST(StaticInit, RefusesInFlightOnEurocV102) {
   StaticInitOptions opt;
   int refused = 0, tried = 0;
   for (double t = 6.0; t < 38.0; t += 2.0) {
-    const StaticInitSummary s = StaticInitialize(imu, opt, imu.front().t_ns + static_cast<int64_t>(t * 1e9));
+    const StaticInitSummary s =
+        StaticInitialize(imu, opt, imu.front().t_ns + static_cast<int64_t>(t * 1e9));
     ++tried;
     if (!s.success) {
       ++refused;

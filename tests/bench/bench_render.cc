@@ -1,5 +1,6 @@
-// Render speed on a room scene like the default one: a 10 x 8 x 3 m room (6 textured surfaces) with 20
-// objects (doors, windows, cabinets, posters, tags), 640 x 480 with EuRoC-like distortion, one thread.
+// Render speed on a room scene like the default one: a 10 x 8 x 3 m room (6 textured surfaces) with
+// 20 objects (doors, windows, cabinets, posters, tags), 640 x 480 with EuRoC-like distortion, one
+// thread.
 //
 //   bench_render [--write_png=PREFIX] [Google Benchmark flags]
 //
@@ -29,8 +30,8 @@ PinholeRadtan Camera640() {
   return cam;
 }
 
-// Walls of the room x in [0, 10], y in [0, 8], z in [0, 3], as (origin, axis_u) along the floor with
-// axis_v = up; each normal u x v points into the room.
+// Walls of the room x in [0, 10], y in [0, 8], z in [0, 3], as (origin, axis_u) along the floor
+// with axis_v = up; each normal u x v points into the room.
 struct WallFrame {
   Vec3 origin, dir;  // dir: unit vector along the wall, to the right when facing it from inside
   double length;
@@ -43,7 +44,8 @@ const WallFrame kWalls[4] = {{{0, 8, 0}, {1, 0, 0}, 10},    // north, facing -y
 
 std::vector<TexturedQuad> RoomScene() {
   std::vector<TexturedQuad> quads;
-  auto add = [&](int id, const Vec3& o, const Vec3& u, const Vec3& v, TextureKind kind, int tag = 0) {
+  auto add = [&](int id, const Vec3& o, const Vec3& u, const Vec3& v, TextureKind kind,
+                 int tag = 0) {
     TexturedQuad q;
     q.id = id;
     q.origin_W = o;
@@ -56,23 +58,33 @@ std::vector<TexturedQuad> RoomScene() {
   };
   add(-1, {0, 0, 0}, {10, 0, 0}, {0, 8, 0}, TextureKind::kFloor);
   add(-1, {0, 0, 3}, {0, 8, 0}, {10, 0, 0}, TextureKind::kCeiling);
-  for (const WallFrame& w : kWalls) add(-1, w.origin, w.length * w.dir, {0, 0, 3}, TextureKind::kWall);
+  for (const WallFrame& w : kWalls)
+    add(-1, w.origin, w.length * w.dir, {0, 0, 3}, TextureKind::kWall);
   struct Obj {
     int wall;
     double s, z, w, h;
     TextureKind kind;
   };
-  const Obj objs[] = {
-      {0, 1.0, 0.0, 0.9, 2.1, TextureKind::kWood},    {0, 3.5, 0.9, 1.4, 1.3, TextureKind::kGlass},
-      {0, 6.0, 1.2, 0.6, 0.8, TextureKind::kPoster},  {0, 7.3, 1.4, 0.2, 0.2, TextureKind::kTag},
-      {0, 8.2, 0.0, 1.2, 0.9, TextureKind::kCabinet}, {0, 5.3, 1.6, 0.12, 0.12, TextureKind::kTag},
-      {1, 1.5, 0.9, 1.2, 1.3, TextureKind::kGlass},   {1, 4.0, 1.3, 0.7, 0.5, TextureKind::kPoster},
-      {1, 5.3, 1.5, 0.3, 0.3, TextureKind::kTag},     {1, 6.5, 0.0, 0.9, 2.1, TextureKind::kWood},
-      {2, 1.0, 0.0, 0.8, 1.8, TextureKind::kCabinet}, {2, 3.0, 1.2, 1.0, 0.7, TextureKind::kPoster},
-      {2, 5.0, 0.9, 1.6, 1.2, TextureKind::kGlass},   {2, 7.0, 1.5, 0.15, 0.15, TextureKind::kTag},
-      {2, 8.2, 0.0, 0.9, 2.1, TextureKind::kWood},    {3, 1.0, 1.3, 0.5, 0.7, TextureKind::kPoster},
-      {3, 2.5, 0.0, 1.0, 0.8, TextureKind::kCabinet}, {3, 4.5, 1.4, 0.25, 0.25, TextureKind::kTag},
-      {3, 5.8, 0.9, 1.2, 1.4, TextureKind::kGlass},   {3, 7.2, 1.2, 0.6, 0.6, TextureKind::kPoster}};
+  const Obj objs[] = {{0, 1.0, 0.0, 0.9, 2.1, TextureKind::kWood},
+                      {0, 3.5, 0.9, 1.4, 1.3, TextureKind::kGlass},
+                      {0, 6.0, 1.2, 0.6, 0.8, TextureKind::kPoster},
+                      {0, 7.3, 1.4, 0.2, 0.2, TextureKind::kTag},
+                      {0, 8.2, 0.0, 1.2, 0.9, TextureKind::kCabinet},
+                      {0, 5.3, 1.6, 0.12, 0.12, TextureKind::kTag},
+                      {1, 1.5, 0.9, 1.2, 1.3, TextureKind::kGlass},
+                      {1, 4.0, 1.3, 0.7, 0.5, TextureKind::kPoster},
+                      {1, 5.3, 1.5, 0.3, 0.3, TextureKind::kTag},
+                      {1, 6.5, 0.0, 0.9, 2.1, TextureKind::kWood},
+                      {2, 1.0, 0.0, 0.8, 1.8, TextureKind::kCabinet},
+                      {2, 3.0, 1.2, 1.0, 0.7, TextureKind::kPoster},
+                      {2, 5.0, 0.9, 1.6, 1.2, TextureKind::kGlass},
+                      {2, 7.0, 1.5, 0.15, 0.15, TextureKind::kTag},
+                      {2, 8.2, 0.0, 0.9, 2.1, TextureKind::kWood},
+                      {3, 1.0, 1.3, 0.5, 0.7, TextureKind::kPoster},
+                      {3, 2.5, 0.0, 1.0, 0.8, TextureKind::kCabinet},
+                      {3, 4.5, 1.4, 0.25, 0.25, TextureKind::kTag},
+                      {3, 5.8, 0.9, 1.2, 1.4, TextureKind::kGlass},
+                      {3, 7.2, 1.2, 0.6, 0.6, TextureKind::kPoster}};
   int id = 1;
   for (const Obj& o : objs) {
     const WallFrame& w = kWalls[o.wall];
@@ -124,8 +136,8 @@ void BM_Render(benchmark::State& state) {
     benchmark::DoNotOptimize(img.data);
   }
   // Summed over threads, divided by wall time: the frames per second of all threads together.
-  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()),
-                                                      benchmark::Counter::kIsRate);
+  state.counters["frames_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_Render)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Render)->Arg(2)->Threads(2)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -144,8 +156,8 @@ void BM_RenderBlur(benchmark::State& state) {
     cv::Mat img = renderer.Render(open, close);
     benchmark::DoNotOptimize(img.data);
   }
-  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()),
-                                                      benchmark::Counter::kIsRate);
+  state.counters["frames_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_RenderBlur)->Arg(4)->Arg(16)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -167,7 +179,8 @@ int main(int argc, char** argv) {
     const char* flag = "--write_png=";
     if (std::strncmp(argv[i], flag, std::strlen(flag)) == 0) {
       const std::string prefix = argv[i] + std::strlen(flag);
-      const fsp::sim::Renderer renderer(fsp::sim::Camera640(), fsp::sim::RoomScene(), fsp::sim::RenderOptions{});
+      const fsp::sim::Renderer renderer(fsp::sim::Camera640(), fsp::sim::RoomScene(),
+                                        fsp::sim::RenderOptions{});
       const auto poses = fsp::sim::Poses();
       for (size_t k = 0; k < poses.size(); k += 2)
         cv::imwrite(prefix + "_" + std::to_string(k) + ".png", renderer.Render(poses[k]));

@@ -66,16 +66,19 @@ inline std::vector<ImuSample> TestImu(int64_t t0, int64_t t1) {
 
 // EuRoC sensor.yaml text (no %YAML line, as real EuRoC files) for a WxH pinhole camera.
 inline std::string EurocCamYaml(int w = kW, int h = kH) {
-  return "sensor_type: camera\nT_BS:\n  cols: 4\n  rows: 4\n  data: [0, -1, 0, 0.01,\n         1, 0, 0, 0.02,\n"
+  return "sensor_type: camera\nT_BS:\n  cols: 4\n  rows: 4\n  data: [0, -1, 0, 0.01,\n         1, "
+         "0, 0, 0.02,\n"
          "         0, 0, 1, 0.03,\n         0, 0, 0, 1]\nrate_hz: 20\nresolution: [" +
          std::to_string(w) + ", " + std::to_string(h) +
-         "]\ncamera_model: pinhole\nintrinsics: [30, 30, 16, 12]\ndistortion_model: radial-tangential\n"
+         "]\ncamera_model: pinhole\nintrinsics: [30, 30, 16, 12]\ndistortion_model: "
+         "radial-tangential\n"
          "distortion_coefficients: [0.01, -0.002, 0.0001, 0.0002]\n";
 }
 
-// A small valid EuRoC layout DIR/mav0 with N frames at 20 Hz from T0 and IMU at 200 Hz covering them.
-// Frame k is DIR/mav0/cam0/data/<t>.png; data.csv line k+2 lists it (line 1 is the header).
-inline std::vector<int64_t> MakeEuroc(const std::filesystem::path& dir, int n = 4, int64_t t0 = 1'000'000'000) {
+// A small valid EuRoC layout DIR/mav0 with N frames at 20 Hz from T0 and IMU at 200 Hz covering
+// them. Frame k is DIR/mav0/cam0/data/<t>.png; data.csv line k+2 lists it (line 1 is the header).
+inline std::vector<int64_t> MakeEuroc(const std::filesystem::path& dir, int n = 4,
+                                      int64_t t0 = 1'000'000'000) {
   const auto mav0 = dir / "mav0";
   std::filesystem::create_directories(mav0 / "cam0" / "data");
   std::string csv = "#timestamp [ns],filename\n";
@@ -89,10 +92,12 @@ inline std::vector<int64_t> MakeEuroc(const std::filesystem::path& dir, int n = 
   WriteText(mav0 / "cam0" / "data.csv", csv);
   WriteText(mav0 / "cam0" / "sensor.yaml", EurocCamYaml());
   std::filesystem::create_directories(mav0 / "imu0");
-  WriteImuCsv(TestImu(t0 - 20'000'000, t.back() + 20'000'000), (mav0 / "imu0" / "data.csv").string());
+  WriteImuCsv(TestImu(t0 - 20'000'000, t.back() + 20'000'000),
+              (mav0 / "imu0" / "data.csv").string());
   WriteText(mav0 / "imu0" / "sensor.yaml",
             "%YAML:1.0\nsensor_type: imu\nrate_hz: 200\ngyroscope_noise_density: 1.0e-4\n"
-            "gyroscope_random_walk: 2.0e-5\naccelerometer_noise_density: 3.0e-3\naccelerometer_random_walk: 4.0e-3\n");
+            "gyroscope_random_walk: 2.0e-5\naccelerometer_noise_density: "
+            "3.0e-3\naccelerometer_random_walk: 4.0e-3\n");
   return t;
 }
 

@@ -1,5 +1,6 @@
-// Bad input: every problem gives one clear line naming the file (and line) and a non-zero exit, both
-// from the library (InputError) and through `fsp info`. Fixtures are small files in a scratch dir.
+// Bad input: every problem gives one clear line naming the file (and line) and a non-zero exit,
+// both from the library (InputError) and through `fsp info`. Fixtures are small files in a scratch
+// dir.
 #include <gtest/gtest.h>
 
 #include "dataset_fixtures.h"
@@ -43,8 +44,8 @@ class BadInput : public ::testing::Test {
     return ErrorOf([&] { OpenSource(opts); });
   }
 
-  // `fsp info ARGS` fails cleanly: non-zero exit (not a signal), exactly one line on stderr starting
-  // with "fsp: error: " and containing every string of MUST.
+  // `fsp info ARGS` fails cleanly: non-zero exit (not a signal), exactly one line on stderr
+  // starting with "fsp: error: " and containing every string of MUST.
   static void ExpectCliError(const std::string& args, const std::vector<std::string>& must) {
     const test::CommandResult r = test::RunFsp("info " + args);
     EXPECT_NE(r.exit_code, 0) << args;
@@ -52,10 +53,13 @@ class BadInput : public ::testing::Test {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_EQ(r.err.rfind("fsp: error: ", 0), 0u) << r.err;
     EXPECT_EQ(r.err.back(), '\n');
-    for (const std::string& m : must) EXPECT_NE(r.err.find(m), std::string::npos) << "'" << m << "' not in: " << r.err;
+    for (const std::string& m : must)
+      EXPECT_NE(r.err.find(m), std::string::npos) << "'" << m << "' not in: " << r.err;
   }
 
-  void ExpectInfoError(const std::vector<std::string>& must) const { ExpectCliError("'" + dir_.string() + "'", must); }
+  void ExpectInfoError(const std::vector<std::string>& must) const {
+    ExpectCliError("'" + dir_.string() + "'", must);
+  }
 
   fs::path dir_, mav0_;
   std::vector<int64_t> t_;
@@ -80,7 +84,8 @@ TEST_F(BadInput, MissingFolder) {
 
 TEST_F(BadInput, MissingImageNamedInDataCsv) {
   fs::remove(mav0_ / "cam0" / "data" / (std::to_string(t_[2]) + ".png"));
-  const std::string want = Path("cam0/data.csv") + ":4: image '" + std::to_string(t_[2]) + ".png' not found";
+  const std::string want =
+      Path("cam0/data.csv") + ":4: image '" + std::to_string(t_[2]) + ".png' not found";
   EXPECT_NE(LibraryError().find(want), std::string::npos) << LibraryError();
   ExpectInfoError({want});
 }
@@ -93,18 +98,21 @@ TEST_F(BadInput, RowWithSixColumns) {
 }
 
 TEST_F(BadInput, NonNumericField) {
-  ReplaceLine("imu0/data.csv", 7, std::to_string(t_[0] - 20'000'000 + 25'000'000) + ",0.1,zero,0.3,0.0,0.0,9.8");
+  ReplaceLine("imu0/data.csv", 7,
+              std::to_string(t_[0] - 20'000'000 + 25'000'000) + ",0.1,zero,0.3,0.0,0.0,9.8");
   const std::string want = Path("imu0/data.csv") + ":7: column 3 (wy) is not a number: 'zero'";
   EXPECT_EQ(LibraryError(), want);
   ExpectInfoError({want});
   // In data.csv too.
   ReplaceLine("cam0/data.csv", 3, "12x45,img.png");
-  EXPECT_NE(LibraryError().find(Path("cam0/data.csv") + ":3: column 1 (t_ns) is not an integer"), std::string::npos)
+  EXPECT_NE(LibraryError().find(Path("cam0/data.csv") + ":3: column 1 (t_ns) is not an integer"),
+            std::string::npos)
       << LibraryError();
 }
 
 TEST_F(BadInput, NanInImu) {
-  ReplaceLine("imu0/data.csv", 4, std::to_string(t_[0] - 20'000'000 + 10'000'000) + ",0.1,0.2,0.3,nan,0.0,9.8");
+  ReplaceLine("imu0/data.csv", 4,
+              std::to_string(t_[0] - 20'000'000 + 10'000'000) + ",0.1,0.2,0.3,nan,0.0,9.8");
   const std::string want = Path("imu0/data.csv") + ":4: column 5 (ax) is not finite: 'nan'";
   EXPECT_EQ(LibraryError(), want);
   ExpectInfoError({want});
@@ -124,18 +132,21 @@ TEST_F(BadInput, DuplicateTimestamp) {
   // IMU sample on line 6 repeats the time of line 5.
   const int64_t t5 = t_[0] - 20'000'000 + 3 * 5'000'000;
   ReplaceLine("imu0/data.csv", 6, std::to_string(t5) + ",0,0,0,0,0,9.81");
-  const std::string want = Path("imu0/data.csv") + ":6: duplicate timestamp " + std::to_string(t5) + " (also on line 5)";
+  const std::string want =
+      Path("imu0/data.csv") + ":6: duplicate timestamp " + std::to_string(t5) + " (also on line 5)";
   EXPECT_EQ(LibraryError(), want);
   ExpectInfoError({want});
 }
 
 TEST_F(BadInput, EmptyFiles) {
   test::WriteText(mav0_ / "imu0" / "data.csv", "");
-  EXPECT_EQ(LibraryError(), Path("imu0/data.csv") + ": no IMU samples (expected rows t_ns,wx,wy,wz,ax,ay,az)");
+  EXPECT_EQ(LibraryError(),
+            Path("imu0/data.csv") + ": no IMU samples (expected rows t_ns,wx,wy,wz,ax,ay,az)");
   ExpectInfoError({Path("imu0/data.csv") + ": no IMU samples"});
 
   test::WriteText(mav0_ / "cam0" / "data.csv", "#timestamp [ns],filename\n");
-  EXPECT_EQ(LibraryError(), Path("cam0/data.csv") + ": no frames listed (expected rows t_ns,filename)");
+  EXPECT_EQ(LibraryError(),
+            Path("cam0/data.csv") + ": no frames listed (expected rows t_ns,filename)");
 
   test::WriteText(mav0_ / "cam0" / "sensor.yaml", "");
   EXPECT_EQ(LibraryError(), Path("cam0/sensor.yaml") + ": calibration file is empty");
@@ -148,7 +159,8 @@ TEST_F(BadInput, ImageThatDoesNotDecode) {
   SourceOptions opts;
   opts.input = dir_.string();
   auto src = OpenSource(opts);
-  EXPECT_EQ(ErrorOf([&] { src->ReadFrame(3); }), bad + ": image does not decode (corrupt or not an image file)");
+  EXPECT_EQ(ErrorOf([&] { src->ReadFrame(3); }),
+            bad + ": image does not decode (corrupt or not an image file)");
   ExpectInfoError({bad + ": image does not decode"});
   EXPECT_EQ(test::RunFsp("info --quick '" + dir_.string() + "'").exit_code, 0);
   // Next() throws the same when it reaches the frame.
@@ -158,12 +170,13 @@ TEST_F(BadInput, ImageThatDoesNotDecode) {
             }),
             bad + ": image does not decode (corrupt or not an image file)");
 
-  // A truncated PNG (as a crashed writer leaves it) as the first frame: libpng's own message is quoted,
-  // not printed.
+  // A truncated PNG (as a crashed writer leaves it) as the first frame: libpng's own message is
+  // quoted, not printed.
   const std::string first = Path("cam0/data/" + std::to_string(t_[0]) + ".png");
   const std::string bytes = test::ReadText(first);
   test::WriteText(first, bytes.substr(0, bytes.size() / 2));
-  EXPECT_NE(LibraryError().find(first + ": image does not decode"), std::string::npos) << LibraryError();
+  EXPECT_NE(LibraryError().find(first + ": image does not decode"), std::string::npos)
+      << LibraryError();
 
   // An empty image file.
   test::WriteText(first, "");
@@ -185,7 +198,9 @@ TEST_F(BadInput, CalibrationResolutionDiffersFromImages) {
   SourceOptions opts;
   opts.input = dir_.string();
   auto src = OpenSource(opts);
-  EXPECT_EQ(ErrorOf([&] { src->ReadFrame(2); }).rfind(later + ": image size 40x24 differs from the calibration's 32x24", 0),
+  EXPECT_EQ(ErrorOf([&] {
+              src->ReadFrame(2);
+            }).rfind(later + ": image size 40x24 differs from the calibration's 32x24", 0),
             0u);
 }
 
@@ -193,7 +208,8 @@ TEST_F(BadInput, UnsupportedCameraModel) {
   std::string yaml = test::EurocCamYaml();
   yaml.replace(yaml.find("radial-tangential"), 17, "equidistant");
   test::WriteText(mav0_ / "cam0" / "sensor.yaml", yaml);
-  const std::string want = Path("cam0/sensor.yaml") + ":11: unsupported camera model 'pinhole' with 'equidistant'";
+  const std::string want =
+      Path("cam0/sensor.yaml") + ":11: unsupported camera model 'pinhole' with 'equidistant'";
   EXPECT_EQ(LibraryError().rfind(want, 0), 0u) << LibraryError();
   ExpectInfoError({want});
 }
@@ -213,7 +229,8 @@ TEST_F(BadInput, VideoAndFolderInputs) {
   // Not a video: FFmpeg's complaint is quoted in the one line, not printed on its own.
   const std::string junk = (dir_ / "junk.mp4").string();
   test::WriteText(junk, "definitely not an mp4 file\n");
-  ExpectCliError("'" + junk + "' --calib '" + calib + "' --imu '" + imu + "'", {junk + ": cannot open as a video"});
+  ExpectCliError("'" + junk + "' --calib '" + calib + "' --imu '" + imu + "'",
+                 {junk + ": cannot open as a video"});
 
   // A video or image folder without --calib/--imu.
   EXPECT_EQ(open(junk, "", imu), junk + ": a video needs --calib FILE and --imu FILE");
@@ -224,12 +241,16 @@ TEST_F(BadInput, VideoAndFolderInputs) {
 
   // An image whose name is not a timestamp, and two images with the same timestamp.
   EXPECT_EQ(open(folder.string(), calib, imu)
-                .rfind((folder / "frame.png").string() + ": image file name is not a nanosecond timestamp", 0),
+                .rfind((folder / "frame.png").string() +
+                           ": image file name is not a nanosecond timestamp",
+                       0),
             0u);
   fs::remove(folder / "frame.png");
   cv::imwrite((folder / "100000000.png").string(), test::TestImage(0));
   cv::imwrite((folder / "100000000.jpg").string(), test::TestImage(0));
-  EXPECT_EQ(open(folder.string(), calib, imu).rfind(folder.string() + ": duplicate timestamp 100000000", 0), 0u);
+  EXPECT_EQ(open(folder.string(), calib, imu)
+                .rfind(folder.string() + ": duplicate timestamp 100000000", 0),
+            0u);
 
   // IMU and frames on different clocks.
   fs::remove(folder / "100000000.jpg");

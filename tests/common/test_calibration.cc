@@ -1,4 +1,5 @@
-// Calibration readers: EuRoC sensor.yaml, Kalibr camchain (T_imu_cam and T_cam_imu), FSP calib.yaml.
+// Calibration readers: EuRoC sensor.yaml, Kalibr camchain (T_imu_cam and T_cam_imu), FSP
+// calib.yaml.
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -99,24 +100,26 @@ TEST(Calibration, KalibrImuChain) {
   EXPECT_DOUBLE_EQ(n.gyroscope_random_walk, 2.2e-05);
   EXPECT_DOUBLE_EQ(n.rate_hz, 200.0);
   // An IMU-only file is not a camera calibration.
-  EXPECT_NE(ErrorOf([&] { ReadCalibration(path); }).find("only an IMU calibration"), std::string::npos);
+  EXPECT_NE(ErrorOf([&] { ReadCalibration(path); }).find("only an IMU calibration"),
+            std::string::npos);
 }
 
 // TUM-VI stores T_cam_imu (IMU -> camera): its inverse is T_B_C. Its equidistant model is rejected.
 TEST(Calibration, KalibrTcamImuIsInvertedAndFisheyeRejected) {
   FSP_REQUIRE_TEST_DATA(path, "vio_calibration/tumvi_kalibr_openvins/kalibr_imucam_chain.yaml");
   Mat4 T_cam_imu;
-  T_cam_imu << -0.9995250378696743, 0.029615343885863205, -0.008522328211654736, 0.04727988224914392,  //
-      0.0075019185074052044, -0.03439736061393144, -0.9993800792498829, -0.047443232143367084,          //
-      -0.02989013031643309, -0.998969345370175, 0.03415885127385616, -0.0681999605066297,               //
+  T_cam_imu << -0.9995250378696743, 0.029615343885863205, -0.008522328211654736,
+      0.04727988224914392,                                                                      //
+      0.0075019185074052044, -0.03439736061393144, -0.9993800792498829, -0.047443232143367084,  //
+      -0.02989013031643309, -0.998969345370175, 0.03415885127385616, -0.0681999605066297,       //
       0.0, 0.0, 0.0, 1.0;
   const Rigid3 T_B_C = ReadCameraExtrinsics(path);
   const Mat3 R = T_B_C.R();
   EXPECT_LT((R * R.transpose() - Mat3::Identity()).norm(), 1e-12);
   EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
   EXPECT_LT((T_B_C.Matrix() * T_cam_imu - Mat4::Identity()).cwiseAbs().maxCoeff(), 1e-6);
-  // Not the matrix itself: reading the key name matters (this rotation is almost its own inverse, so
-  // the translations tell them apart: 3.3 cm).
+  // Not the matrix itself: reading the key name matters (this rotation is almost its own inverse,
+  // so the translations tell them apart: 3.3 cm).
   EXPECT_GT((T_B_C.translation() - T_cam_imu.topRightCorner<3, 1>()).norm(), 0.02);
 
   const std::string msg = ErrorOf([&] { ReadCalibration(path); });
@@ -188,14 +191,16 @@ TEST(Calibration, BadFilesNameFileAndLine) {
 
   // A non-numeric intrinsic, on line 4.
   WriteText(dir / "nan.yaml",
-            "camera:\n  width: 640\n  height: 480\n  fx: abc\n  fy: 1\n  cx: 1\n  cy: 1\nT_B_C: [1,0,0,0, "
+            "camera:\n  width: 640\n  height: 480\n  fx: abc\n  fy: 1\n  cx: 1\n  cy: 1\nT_B_C: "
+            "[1,0,0,0, "
             "0,1,0,0, 0,0,1,0, 0,0,0,1]\n");
   msg = ErrorOf([&] { ReadCalibration(p("nan.yaml")); });
   EXPECT_NE(msg.find(p("nan.yaml") + ":4: 'fx' is not a number"), std::string::npos) << msg;
 
   // A transform that is not rigid.
   WriteText(dir / "scaled.yaml",
-            "camera: {width: 640, height: 480, fx: 400, fy: 400, cx: 320, cy: 240}\nT_B_C: [2,0,0,0, 0,1,0,0, "
+            "camera: {width: 640, height: 480, fx: 400, fy: 400, cx: 320, cy: 240}\nT_B_C: "
+            "[2,0,0,0, 0,1,0,0, "
             "0,0,1,0, 0,0,0,1]\n");
   msg = ErrorOf([&] { ReadCalibration(p("scaled.yaml")); });
   EXPECT_NE(msg.find(p("scaled.yaml") + ":2:"), std::string::npos) << msg;
@@ -203,7 +208,8 @@ TEST(Calibration, BadFilesNameFileAndLine) {
 
   // Principal point outside the image (Check).
   WriteText(dir / "pp.yaml",
-            "camera: {width: 640, height: 480, fx: 400, fy: 400, cx: 900, cy: 240}\nT_B_C: [1,0,0,0, 0,1,0,0, "
+            "camera: {width: 640, height: 480, fx: 400, fy: 400, cx: 900, cy: 240}\nT_B_C: "
+            "[1,0,0,0, 0,1,0,0, "
             "0,0,1,0, 0,0,0,1]\n");
   msg = ErrorOf([&] { ReadCalibration(p("pp.yaml")); });
   EXPECT_NE(msg.find("principal point"), std::string::npos) << msg;

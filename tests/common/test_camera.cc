@@ -67,8 +67,9 @@ TEST(Camera, UndistortMatchesOpenCv) {
   cv::Mat dist = (cv::Mat_<double>(1, 4) << cam.distortion[0], cam.distortion[1], cam.distortion[2],
                   cam.distortion[3]);
   // OpenCV's default 5 iterations are not enough for EuRoC's lens; ask for convergence.
-  cv::undistortPoints(distorted, undistorted, K, dist, cv::noArray(), K,
-                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-14));
+  cv::undistortPoints(
+      distorted, undistorted, K, dist, cv::noArray(), K,
+      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-14));
   double max_cv = 0.0, max_truth = 0.0;
   for (size_t i = 0; i < pts.size(); ++i) {
     const Vec2 ours = cam.UndistortPixel(Vec2(distorted[i].x, distorted[i].y));
@@ -93,7 +94,9 @@ TEST(Camera, ProjectJacobiansMatchNumeric) {
         numeric.col(k) = ideal ? (cam.ProjectIdeal(p + e) - cam.ProjectIdeal(p - e)) / (2 * h)
                                : (cam.Project(p + e) - cam.Project(p - e)) / (2 * h);
       }
-      EXPECT_LT((J - numeric).norm(), 1e-5 * (1.0 + J.norm())) << "ideal=" << ideal << "\n" << J << "\n" << numeric;
+      EXPECT_LT((J - numeric).norm(), 1e-5 * (1.0 + J.norm())) << "ideal=" << ideal << "\n"
+                                                               << J << "\n"
+                                                               << numeric;
     }
   }
 }

@@ -17,8 +17,8 @@ namespace {
 namespace fs = std::filesystem;
 using test::ErrorOf;
 
-// Drains SOURCE, checking the merge order: time never decreases, and when a frame comes out every IMU
-// sample with t <= frame t has come out before it. Returns {frames, imu samples}.
+// Drains SOURCE, checking the merge order: time never decreases, and when a frame comes out every
+// IMU sample with t <= frame t has come out before it. Returns {frames, imu samples}.
 std::pair<int, int> DrainInOrder(Source* source) {
   const std::vector<ImuSample>& imu = source->imu();
   int frames = 0, samples = 0;
@@ -104,8 +104,8 @@ TEST(Dataset, EurocMicroWithKalibrCalibration) {
   EXPECT_LT((src->calibration().T_B_C.Matrix() - EurocTBS()).cwiseAbs().maxCoeff(), 1e-6);
 }
 
-// The micro dataset's cam0 folder as an image folder: by its data.csv, and its data/ folder by file names
-// (19-digit nanosecond timestamps).
+// The micro dataset's cam0 folder as an image folder: by its data.csv, and its data/ folder by file
+// names (19-digit nanosecond timestamps).
 TEST(Dataset, EurocMicroAsImageFolder) {
   FSP_REQUIRE_TEST_DATA(mav0, "euroc_v101_micro/mav0");
   SourceOptions opts;
@@ -143,7 +143,8 @@ TEST(Dataset, InfoJsonOnEurocMicro) {
   EXPECT_DOUBLE_EQ(cam.at("distortion")[0].get<double>(), -0.28340811);
   ASSERT_EQ(j.at("T_B_C").size(), 16u);
   const Mat4 T = EurocTBS();
-  for (int i = 0; i < 16; ++i) EXPECT_NEAR(j.at("T_B_C")[i].get<double>(), T(i / 4, i % 4), 1e-9) << i;
+  for (int i = 0; i < 16; ++i)
+    EXPECT_NEAR(j.at("T_B_C")[i].get<double>(), T(i / 4, i % 4), 1e-9) << i;
   EXPECT_EQ(j.at("frames_decoded").get<int>(), 95);
 
   const auto human = test::RunFsp("info '" + dir + "' --quick");
@@ -180,7 +181,8 @@ TEST(Dataset, VideoTriple) {
   const auto dir = test::ScratchDir();
   const auto video = (dir / "video.mp4").string();
   {
-    cv::VideoWriter writer(video, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), 20.0, cv::Size(test::kW, test::kH));
+    cv::VideoWriter writer(video, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), 20.0,
+                           cv::Size(test::kW, test::kH));
     ASSERT_TRUE(writer.isOpened());
     for (int k = 0; k < 10; ++k) {
       cv::Mat bgr;
@@ -197,7 +199,8 @@ TEST(Dataset, VideoTriple) {
   auto src = OpenSource(opts);
   EXPECT_EQ(src->kind(), InputKind::kVideo);
   ASSERT_EQ(src->frame_times().size(), 10u);
-  for (int k = 0; k < 10; ++k) EXPECT_EQ(src->frame_times()[static_cast<size_t>(k)], 50'000'000LL * k) << k;
+  for (int k = 0; k < 10; ++k)
+    EXPECT_EQ(src->frame_times()[static_cast<size_t>(k)], 50'000'000LL * k) << k;
 
   // Random access, forwards and backwards, gives the same pixels as a sequential pass.
   const Frame f5 = src->ReadFrame(5);
@@ -236,11 +239,12 @@ TEST(Dataset, VideoTriple) {
   test::WriteText(dir / "nine.txt", times.substr(0, times.rfind('\n', times.size() - 2) + 1));
   opts.frame_times = (dir / "nine.txt").string();
   const std::string msg = ErrorOf([&] { OpenSource(opts); });
-  EXPECT_NE(msg.find("nine.txt: 9 frame times but " + video + " has 10 frames"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("nine.txt: 9 frame times but " + video + " has 10 frames"), std::string::npos)
+      << msg;
 
   // fsp info on the triple.
-  const auto r = test::RunFsp("info '" + video + "' --imu '" + opts.imu + "' --calib '" + (dir / "calib.yaml").string() +
-                              "' --json");
+  const auto r = test::RunFsp("info '" + video + "' --imu '" + opts.imu + "' --calib '" +
+                              (dir / "calib.yaml").string() + "' --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j.at("frames").get<int>(), 10);
@@ -253,8 +257,8 @@ TEST(Dataset, VideoAt30HzHasExactNanosecondTimes) {
   const auto dir = test::ScratchDir();
   const auto video = (dir / "video.mp4").string();
   {
-    cv::VideoWriter writer(video, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), 30.0, cv::Size(test::kW, test::kH),
-                           false);
+    cv::VideoWriter writer(video, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), 30.0,
+                           cv::Size(test::kW, test::kH), false);
     ASSERT_TRUE(writer.isOpened());
     for (int k = 0; k < 4; ++k) writer.write(test::TestImage(k));
   }

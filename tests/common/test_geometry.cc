@@ -1,4 +1,5 @@
-// Pins the geometry conventions of README "Conventions" and checks exp/log, Jacobians and Plus/Minus.
+// Pins the geometry conventions of README "Conventions" and checks exp/log, Jacobians and
+// Plus/Minus.
 #include <random>
 
 #include <gtest/gtest.h>
@@ -22,8 +23,8 @@ TEST(Conventions, YawOf90DegreesMapsXToY) {
 }
 
 TEST(Conventions, EigenQuaternionStorageIsXyzw) {
-  const Quat q = ExpQuat(Vec3(0, 0, kPi / 2));  // 90 deg about z
-  EXPECT_NEAR(q.coeffs()[0], 0.0, 1e-12);       // x
+  const Quat q = ExpQuat(Vec3(0, 0, kPi / 2));        // 90 deg about z
+  EXPECT_NEAR(q.coeffs()[0], 0.0, 1e-12);             // x
   EXPECT_NEAR(q.coeffs()[2], std::sqrt(0.5), 1e-12);  // z
   EXPECT_NEAR(q.coeffs()[3], std::sqrt(0.5), 1e-12);  // w last
   EXPECT_NEAR(q.w(), std::sqrt(0.5), 1e-12);
@@ -45,8 +46,8 @@ TEST(Conventions, RpyOrderIsZyx) {
                         Eigen::AngleAxisd(p, Vec3::UnitY()).toRotationMatrix() *
                         Eigen::AngleAxisd(r, Vec3::UnitX()).toRotationMatrix();
   EXPECT_TRUE(RotFromRpy(r, p, y).isApprox(expected, 1e-12));
-  // CONTRACT.md: a door on a wall facing -y, upright, is rpy_deg [90, 0, 0]: x along the width (+x),
-  // y (height) up, z = x × y pointing out of the face towards -y.
+  // CONTRACT.md: a door on a wall facing -y, upright, is rpy_deg [90, 0, 0]: x along the width
+  // (+x), y (height) up, z = x × y pointing out of the face towards -y.
   const Mat3 R_W_O = RotFromRpy(kPi / 2, 0, 0);
   EXPECT_TRUE((R_W_O * Vec3::UnitY()).isApprox(Vec3::UnitZ(), 1e-12));
   EXPECT_TRUE((R_W_O * Vec3::UnitZ()).isApprox(-Vec3::UnitY(), 1e-12));
@@ -74,13 +75,17 @@ TEST(SO3, RightJacobianMatchesNumeric) {
     Mat3 numeric;
     const double h = 1e-6;
     for (int k = 0; k < 3; ++k) {
-      // Exp(phi + h e_k) = Exp(phi) Exp(Jr e_k h)  =>  column k = Log(Exp(phi)^T Exp(phi + h e_k)) / h
+      // Exp(phi + h e_k) = Exp(phi) Exp(Jr e_k h)  =>  column k = Log(Exp(phi)^T Exp(phi + h e_k))
+      // / h
       const Vec3 e = Vec3::Unit(k) * h;
       numeric.col(k) = (LogSO3(ExpSO3(phi).transpose() * ExpSO3(phi + e)) -
-                        LogSO3(ExpSO3(phi).transpose() * ExpSO3(phi - e))) / (2 * h);
+                        LogSO3(ExpSO3(phi).transpose() * ExpSO3(phi - e))) /
+                       (2 * h);
     }
-    EXPECT_TRUE(RightJacobianSO3(phi).isApprox(numeric, 1e-7)) << RightJacobianSO3(phi) << "\n" << numeric;
-    EXPECT_TRUE((RightJacobianSO3(phi) * RightJacobianInvSO3(phi)).isApprox(Mat3::Identity(), 1e-10));
+    EXPECT_TRUE(RightJacobianSO3(phi).isApprox(numeric, 1e-7)) << RightJacobianSO3(phi) << "\n"
+                                                               << numeric;
+    EXPECT_TRUE(
+        (RightJacobianSO3(phi) * RightJacobianInvSO3(phi)).isApprox(Mat3::Identity(), 1e-10));
   }
 }
 

@@ -8,16 +8,19 @@
 namespace fsp::eval {
 namespace {
 
-TrajectoryMetrics Evaluate(const std::string& ref_path, const std::string& est_path, AlignMode align) {
+TrajectoryMetrics Evaluate(const std::string& ref_path, const std::string& est_path,
+                           AlignMode align) {
   TrajectoryOptions options;
   options.align = align;
   return EvaluateTrajectory(ReadTrajectory(ref_path), ReadTrajectory(est_path), options);
 }
 
-// Published by evo (doc/performance.md): evo_ape tum fr2_desk_groundtruth.txt fr2_desk_ORB.txt --align.
+// Published by evo (doc/performance.md): evo_ape tum fr2_desk_groundtruth.txt fr2_desk_ORB.txt
+// --align.
 TEST(TrajEvalReference, Fr2DeskOrbMatchesEvoPublishedApe) {
   FSP_REQUIRE_TEST_DATA(dir, "traj_eval/evo");
-  const auto m = Evaluate(dir + "/fr2_desk_groundtruth.txt", dir + "/fr2_desk_ORB.txt", AlignMode::kSe3);
+  const auto m =
+      Evaluate(dir + "/fr2_desk_groundtruth.txt", dir + "/fr2_desk_ORB.txt", AlignMode::kSe3);
   EXPECT_EQ(m.pairs, 2174u);
   EXPECT_NEAR(m.ate.rmse, 0.008119, 5e-7);
   EXPECT_NEAR(m.ate.mean, 0.007492, 5e-7);
@@ -29,7 +32,8 @@ TEST(TrajEvalReference, Fr2DeskOrbMatchesEvoPublishedApe) {
 
 TEST(TrajEvalReference, Freiburg1XyzSe3AndRpe) {
   FSP_REQUIRE_TEST_DATA(dir, "traj_eval/evo");
-  const auto m = Evaluate(dir + "/freiburg1_xyz-groundtruth.txt", dir + "/freiburg1_xyz-rgbdslam.txt", AlignMode::kSe3);
+  const auto m = Evaluate(dir + "/freiburg1_xyz-groundtruth.txt",
+                          dir + "/freiburg1_xyz-rgbdslam.txt", AlignMode::kSe3);
   EXPECT_EQ(m.pairs, 785u);
   EXPECT_NEAR(m.ate.rmse, 0.013470089, 5e-10);
   EXPECT_EQ(m.rpe_trans.count, 784u);
@@ -39,7 +43,8 @@ TEST(TrajEvalReference, Freiburg1XyzSe3AndRpe) {
 
 TEST(TrajEvalReference, Fr2DeskMonoKeyframesSim3) {
   FSP_REQUIRE_TEST_DATA(dir, "traj_eval/evo");
-  const auto m = Evaluate(dir + "/fr2_desk_groundtruth.txt", dir + "/fr2_desk_ORB_kf_mono.txt", AlignMode::kSim3);
+  const auto m = Evaluate(dir + "/fr2_desk_groundtruth.txt", dir + "/fr2_desk_ORB_kf_mono.txt",
+                          AlignMode::kSim3);
   EXPECT_EQ(m.pairs, 118u);
   EXPECT_NEAR(m.ate.rmse, 0.007729265, 5e-10);
   EXPECT_NEAR(m.alignment.scale, 2.228021754, 5e-10);
@@ -62,7 +67,8 @@ TEST(TrajEvalReference, V101OpenvinsSe3AndPosYaw) {
   const auto se3 = Evaluate(dir + "/V101_gt.txt", dir + "/V101_openvins.txt", AlignMode::kSe3);
   EXPECT_EQ(se3.pairs, 2760u);
   EXPECT_NEAR(se3.ate.rmse, 0.052101961, 5e-10);
-  const auto posyaw = Evaluate(dir + "/V101_gt.txt", dir + "/V101_openvins.txt", AlignMode::kPosYaw);
+  const auto posyaw =
+      Evaluate(dir + "/V101_gt.txt", dir + "/V101_openvins.txt", AlignMode::kPosYaw);
   EXPECT_EQ(posyaw.pairs, 2760u);
   EXPECT_NEAR(posyaw.ate.rmse, 0.052742238, 5e-10);
 }
@@ -85,7 +91,8 @@ TEST(TrajEvalReference, RpgPosYaw) {
   for (const RpgCase& c : cases) {
     SCOPED_TRACE(std::string(c.folder) + "/" + c.estimate);
     const std::string base = dir + "/" + c.folder + "/";
-    const auto m = Evaluate(base + "stamped_groundtruth.txt", base + c.estimate, AlignMode::kPosYaw);
+    const auto m =
+        Evaluate(base + "stamped_groundtruth.txt", base + c.estimate, AlignMode::kPosYaw);
     EXPECT_EQ(m.pairs, c.pairs);
     EXPECT_NEAR(m.ate.rmse, c.rmse, 5e-10);
   }

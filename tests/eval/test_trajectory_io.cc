@@ -25,7 +25,8 @@ void ExpectInputError(F read, const std::vector<std::string>& fragments) {
     ADD_FAILURE() << "no InputError thrown";
   } catch (const InputError& e) {
     for (const std::string& frag : fragments) {
-      EXPECT_NE(std::string(e.what()).find(frag), std::string::npos) << "'" << e.what() << "' lacks '" << frag << "'";
+      EXPECT_NE(std::string(e.what()).find(frag), std::string::npos)
+          << "'" << e.what() << "' lacks '" << frag << "'";
     }
   }
 }
@@ -72,7 +73,8 @@ TEST(ReadTum, RoundTripKeepsNanosecondsAndDigits) {
   poses[0].t_ns = 1403715278862139940;
   poses[0].T_W_B = Rigid3(Quat(0.5, -0.5, 0.5, 0.5), Vec3(1234.567890123, -0.000123456789, 3.0));
   poses[1].t_ns = 1403715278912139893;
-  poses[1].T_W_B = Rigid3(Quat(Eigen::AngleAxisd(0.3, Vec3(1, 2, 3).normalized())), Vec3(1e-7, 2, -3));
+  poses[1].T_W_B =
+      Rigid3(Quat(Eigen::AngleAxisd(0.3, Vec3(1, 2, 3).normalized())), Vec3(1e-7, 2, -3));
   const std::string path = (test::ScratchDir() / "rt.tum").string();
   WriteTum(poses, path);
   const auto back = ReadTum(path);
@@ -91,28 +93,38 @@ TEST(ReadTum, BadRowsNameFileAndLine) {
                    {"nan.tum:2", "not finite"});
   ExpectInputError([&] { ReadTum(WriteText("word.tum", "1 0 0 0 0 0 0 1\n2 zero 0 0 0 0 0 1\n")); },
                    {"word.tum:2", "not a number"});
-  ExpectInputError([&] { ReadTum(WriteText("back.tum", "#c\n2 0 0 0 0 0 0 1\n1.5 0 0 0 0 0 0 1\n")); },
-                   {"back.tum:3", "does not increase"});
+  ExpectInputError(
+      [&] { ReadTum(WriteText("back.tum", "#c\n2 0 0 0 0 0 0 1\n1.5 0 0 0 0 0 0 1\n")); },
+      {"back.tum:3", "does not increase"});
   ExpectInputError([&] { ReadTum(WriteText("same.tum", "2 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n")); },
                    {"same.tum:2", "does not increase"});
   ExpectInputError([&] { ReadTum(WriteText("quat.tum", "1 0 0 0 0 0 0 1\n2 0 0 0 0.5 0 0 1\n")); },
                    {"quat.tum:2", "quaternion norm"});
-  ExpectInputError([&] { ReadTum(WriteText("empty.tum", "# nothing\n")); }, {"empty.tum", "no poses"});
-  ExpectInputError([&] { ReadTum((test::ScratchDir() / "missing.tum").string()); }, {"missing.tum", "not found"});
+  ExpectInputError([&] { ReadTum(WriteText("empty.tum", "# nothing\n")); },
+                   {"empty.tum", "no poses"});
+  ExpectInputError([&] { ReadTum((test::ScratchDir() / "missing.tum").string()); },
+                   {"missing.tum", "not found"});
 }
 
 TEST(ReadTum, NonDecreasingOrderAcceptsRepeatedStampsOnly) {
   const std::string text = "1 0 0 0 0 0 0 1\n1.0 1 0 0 0 0 0 1\n2 0 0 0 0 0 0 1\n";
-  ExpectInputError([&] { ReadTum(WriteText("rep.tum", text)); }, {"rep.tum:2", "does not increase"});
+  ExpectInputError([&] { ReadTum(WriteText("rep.tum", text)); },
+                   {"rep.tum:2", "does not increase"});
   const auto poses = ReadTum(WriteText("rep.tum", text), nullptr, TimeOrder::kNonDecreasing);
   ASSERT_EQ(poses.size(), 3u);
   EXPECT_EQ(poses[1].t_ns, poses[0].t_ns);
-  ExpectInputError([&] { ReadTum(WriteText("bk.tum", "2 0 0 0 0 0 0 1\n1 0 0 0 0 0 0 1\n"), nullptr,
-                                 TimeOrder::kNonDecreasing); },
-                   {"bk.tum:2", "goes backwards"});
-  ExpectInputError([&] { ReadEurocGroundTruth(WriteText("bk.csv", "5,0,0,0,1,0,0,0\n4,0,0,0,1,0,0,0\n"),
-                                              TimeOrder::kNonDecreasing); },
-                   {"bk.csv:2", "goes backwards"});
+  ExpectInputError(
+      [&] {
+        ReadTum(WriteText("bk.tum", "2 0 0 0 0 0 0 1\n1 0 0 0 0 0 0 1\n"), nullptr,
+                TimeOrder::kNonDecreasing);
+      },
+      {"bk.tum:2", "goes backwards"});
+  ExpectInputError(
+      [&] {
+        ReadEurocGroundTruth(WriteText("bk.csv", "5,0,0,0,1,0,0,0\n4,0,0,0,1,0,0,0\n"),
+                             TimeOrder::kNonDecreasing);
+      },
+      {"bk.csv:2", "goes backwards"});
 }
 
 TEST(ReadEurocGroundTruth, ConvertsWxyzToEigenOrder) {
@@ -142,8 +154,9 @@ TEST(ReadEurocGroundTruth, ConvertsWxyzToEigenOrder) {
 TEST(ReadEurocGroundTruth, BadRowsNameFileAndLine) {
   ExpectInputError([&] { ReadEurocGroundTruth(WriteText("c.csv", "#h\n1,0,0,0,1,0,0,0,1\n")); },
                    {"c.csv:2", "8, 11, 14 or 17 columns", "found 9"});
-  ExpectInputError([&] { ReadEurocGroundTruth(WriteText("t.csv", "5,0,0,0,1,0,0,0\n4,0,0,0,1,0,0,0\n")); },
-                   {"t.csv:2", "does not increase"});
+  ExpectInputError(
+      [&] { ReadEurocGroundTruth(WriteText("t.csv", "5,0,0,0,1,0,0,0\n4,0,0,0,1,0,0,0\n")); },
+      {"t.csv:2", "does not increase"});
   ExpectInputError([&] { ReadEurocGroundTruth(WriteText("q.csv", "5,0,0,0,0,0,0,0\n")); },
                    {"q.csv:1", "quaternion norm"});
   ExpectInputError([&] { ReadEurocGroundTruth(WriteText("i.csv", "5.5,0,0,0,1,0,0,0\n")); },

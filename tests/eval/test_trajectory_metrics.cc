@@ -15,7 +15,8 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// A random trajectory: N poses 0.05 s apart, positions spread over a few metres, random orientations.
+// A random trajectory: N poses 0.05 s apart, positions spread over a few metres, random
+// orientations.
 Trajectory RandomTrajectory(std::mt19937& rng, size_t n) {
   std::normal_distribution<double> pos(0.0, 2.0), rot(0.0, 1.0);
   Trajectory traj;
@@ -23,7 +24,8 @@ Trajectory RandomTrajectory(std::mt19937& rng, size_t n) {
   for (size_t i = 0; i < n; ++i) {
     traj.t_ns.push_back(1'000'000'000 + static_cast<int64_t>(i) * 50'000'000);
     traj.t_s.push_back(static_cast<double>(traj.t_ns.back()) / 1e9);
-    traj.T_W_B.push_back(Rigid3(ExpQuat(Vec3(rot(rng), rot(rng), rot(rng))), Vec3(pos(rng), pos(rng), pos(rng))));
+    traj.T_W_B.push_back(
+        Rigid3(ExpQuat(Vec3(rot(rng), rot(rng), rot(rng))), Vec3(pos(rng), pos(rng), pos(rng))));
   }
   return traj;
 }
@@ -33,7 +35,8 @@ Trajectory RandomTrajectory(std::mt19937& rng, size_t n) {
 Trajectory Transformed(const Trajectory& ref, double s, const Mat3& R, const Vec3& t) {
   Trajectory est = ref;
   est.source = "transformed";
-  for (Rigid3& T : est.T_W_B) T = Rigid3(R.transpose() * T.R(), R.transpose() * (T.translation() - t) / s);
+  for (Rigid3& T : est.T_W_B)
+    T = Rigid3(R.transpose() * T.R(), R.transpose() * (T.translation() - t) / s);
   return est;
 }
 
@@ -43,7 +46,9 @@ Trajectory Timed(const std::vector<double>& t_s) {
   for (size_t i = 0; i < t_s.size(); ++i) {
     traj.t_s.push_back(t_s[i]);
     traj.t_ns.push_back(static_cast<int64_t>(std::llround(t_s[i] * 1e9)));
-    traj.T_W_B.push_back(Rigid3(Quat::Identity(), Vec3(static_cast<double>(i), std::sin(static_cast<double>(i)), 0.1 * static_cast<double>(i * i))));
+    traj.T_W_B.push_back(
+        Rigid3(Quat::Identity(), Vec3(static_cast<double>(i), std::sin(static_cast<double>(i)),
+                                      0.1 * static_cast<double>(i * i))));
   }
   return traj;
 }
@@ -101,7 +106,8 @@ TEST(Align, PosYawRecoversYawAndTranslation) {
 TEST(Align, PosYawNeverRotatesRollOrPitch) {
   std::mt19937 rng(10);
   const Trajectory ref = RandomTrajectory(rng, 50);
-  // The estimate's world is tilted by 5 degrees of roll as well as yawed: posyaw must not undo the tilt.
+  // The estimate's world is tilted by 5 degrees of roll as well as yawed: posyaw must not undo the
+  // tilt.
   const Mat3 R = RotFromRpy(5.0 * kPi / 180.0, 0.0, 0.8);
   TrajectoryOptions options;
   options.align = AlignMode::kPosYaw;
@@ -113,7 +119,8 @@ TEST(Align, PosYawNeverRotatesRollOrPitch) {
   EXPECT_EQ(m.alignment.R(2, 1), 0.0);
   EXPECT_GT(m.ate.rmse, 0.05);  // the tilt stays as error
   options.align = AlignMode::kSe3;
-  EXPECT_LT(EvaluateTrajectory(ref, Transformed(ref, 1.0, R, Vec3(0.3, 0.0, 0.0)), options).ate.max, 1e-9);
+  EXPECT_LT(EvaluateTrajectory(ref, Transformed(ref, 1.0, R, Vec3(0.3, 0.0, 0.0)), options).ate.max,
+            1e-9);
 }
 
 TEST(Align, DegenerateAndTooFewPointsAreFailures) {
@@ -131,8 +138,8 @@ TEST(Associate, NearestWithinMaxDiffAndDropsTheRest) {
   const Trajectory ref = Timed({1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6});
   const Trajectory est = Timed({1.004, 1.1099, 1.2111, 1.349, 1.397, 1.496});
   const Association a = Associate(ref, est, AssociationOptions{});
-  // 1.004 -> 1.0 (4 ms), 1.1099 -> 1.1 (9.9 ms), 1.2111 dropped (11.1 ms), 1.349 dropped (49 ms from
-  // both 1.3 and 1.4; nearest is 1.3 at 49 ms), 1.397 -> 1.4, 1.496 -> 1.5.
+  // 1.004 -> 1.0 (4 ms), 1.1099 -> 1.1 (9.9 ms), 1.2111 dropped (11.1 ms), 1.349 dropped (49 ms
+  // from both 1.3 and 1.4; nearest is 1.3 at 49 ms), 1.397 -> 1.4, 1.496 -> 1.5.
   EXPECT_EQ(a.est, (std::vector<size_t>{0, 1, 4, 5}));
   EXPECT_EQ(a.ref, (std::vector<size_t>{0, 1, 4, 5}));
 
@@ -145,12 +152,14 @@ TEST(Associate, NearestWithinMaxDiffAndDropsTheRest) {
 
 TEST(Associate, LongerEstimateSearchesReferenceAndMayReuseAPose) {
   const Trajectory ref = Timed({1.0, 1.2, 1.4});
-  const Trajectory est = Timed({0.99, 1.0, 1.005, 1.2, 1.21, 1.5});  // more poses than the reference
+  const Trajectory est =
+      Timed({0.99, 1.0, 1.005, 1.2, 1.21, 1.5});  // more poses than the reference
   const Association a = Associate(ref, est, AssociationOptions{});
   // Each reference pose picks the nearest estimate pose: 1.0 -> 1.0, 1.2 -> 1.2, 1.4 -> none.
   EXPECT_EQ(a.ref, (std::vector<size_t>{0, 1}));
   EXPECT_EQ(a.est, (std::vector<size_t>{1, 3}));
-  // Equal sizes: the estimate searches the reference, and one reference pose may serve two estimates.
+  // Equal sizes: the estimate searches the reference, and one reference pose may serve two
+  // estimates.
   const Trajectory ref2 = Timed({1.0, 1.1, 1.2});
   const Trajectory est2 = Timed({1.001, 1.003, 1.2});
   const Association b = Associate(ref2, est2, AssociationOptions{});
@@ -170,11 +179,13 @@ TEST(Associate, OffsetIsAddedToTheEstimatesTimes) {
 }
 
 TEST(EvaluateTrajectory, RpeOfHandMadeErrors) {
-  // Reference: 4 poses along x, 1 m apart. Estimate: the third step is 0.5 m too long and the last pose
-  // is yawed by 10 degrees. RPE errors per step: translation (0, 0.5, 0) m, rotation (0, 0, 10) deg.
+  // Reference: 4 poses along x, 1 m apart. Estimate: the third step is 0.5 m too long and the last
+  // pose is yawed by 10 degrees. RPE errors per step: translation (0, 0.5, 0) m, rotation (0, 0,
+  // 10) deg.
   Trajectory ref = Timed({1.0, 1.1, 1.2, 1.3});
   Trajectory est = ref;
-  for (size_t i = 0; i < 4; ++i) ref.T_W_B[i] = Rigid3(Quat::Identity(), Vec3(static_cast<double>(i), 0, 0));
+  for (size_t i = 0; i < 4; ++i)
+    ref.T_W_B[i] = Rigid3(Quat::Identity(), Vec3(static_cast<double>(i), 0, 0));
   est.T_W_B = {Rigid3(Quat::Identity(), Vec3(0, 0, 0)), Rigid3(Quat::Identity(), Vec3(1, 0, 0)),
                Rigid3(Quat::Identity(), Vec3(2.5, 0, 0)),
                Rigid3(Quat(Eigen::AngleAxisd(10.0 * kPi / 180.0, Vec3::UnitZ())), Vec3(3.5, 0, 0))};
@@ -205,7 +216,9 @@ TEST(EvaluateTrajectory, NoOverlapAndTooFewPairsAreClearErrors) {
     EvaluateTrajectory(ref, Timed({1.0, 1.1, 1.25}), TrajectoryOptions{});
     ADD_FAILURE() << "no error";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("only 2 pose pairs within 0.01 s (need 3)"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("only 2 pose pairs within 0.01 s (need 3)"),
+              std::string::npos)
+        << e.what();
   }
 }
 
@@ -216,7 +229,8 @@ TEST(ReadTrajectory, TellsEurocFromTum) {
     return (dir / name).string();
   };
   // 8 integer-stamped columns in a .csv: EuRoC (quaternion w first), times in ns.
-  const Trajectory euroc = ReadTrajectory(write("gt.csv", "1000,1,2,3,0,0,0,1\n2000,1,2,3,1,0,0,0\n"));
+  const Trajectory euroc =
+      ReadTrajectory(write("gt.csv", "1000,1,2,3,0,0,0,1\n2000,1,2,3,1,0,0,0\n"));
   ASSERT_EQ(euroc.size(), 2u);
   EXPECT_EQ(euroc.t_ns[0], 1000);
   EXPECT_NEAR(std::abs(euroc.T_W_B[0].rotation().z()), 1.0, 1e-12);  // w=0, x=0, y=0, z=1
@@ -226,7 +240,8 @@ TEST(ReadTrajectory, TellsEurocFromTum) {
   EXPECT_EQ(tum.t_ns[0], 1000 * kNsPerSecond);
   EXPECT_NEAR(tum.T_W_B[0].rotation().w(), 1.0, 1e-12);
   // Real EuRoC stamps (> 1e12) are told apart in any file name.
-  EXPECT_EQ(ReadTrajectory(write("big.txt", "1403715524907143168,1,2,3,1,0,0,0\n")).t_ns[0], 1403715524907143168);
+  EXPECT_EQ(ReadTrajectory(write("big.txt", "1403715524907143168,1,2,3,1,0,0,0\n")).t_ns[0],
+            1403715524907143168);
 }
 
 TEST(Stats, MatchesNumpyConventions) {

@@ -73,8 +73,8 @@ TEST(GravityImageDirection, UndefinedAlongTheViewingRay) {
 namespace fsp::frontend {
 namespace {
 
-// A quad sharing a side with the outer one is inside; one reaching 3 px past the outer side is inside
-// with a 5 px margin, not with 2 px; the outer is not inside the smaller one.
+// A quad sharing a side with the outer one is inside; one reaching 3 px past the outer side is
+// inside with a 5 px margin, not with 2 px; the outer is not inside the smaller one.
 TEST(RectGeometry, ContainsWithMarginToleratesSharedSides) {
   const Corners outer = {Vec2(0, 100), Vec2(100, 100), Vec2(100, 0), Vec2(0, 0)};
   const Corners shared = {Vec2(0, 100), Vec2(50, 100), Vec2(50, 50), Vec2(0, 50)};

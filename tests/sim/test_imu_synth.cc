@@ -52,7 +52,8 @@ NavState Step(const NavState& s, const Vec4& dq, const Vec3& dv, const Vec3& dp,
 }
 
 // Classic RK4 over two IMU intervals: samples k, k+1, k+2 give the start, midpoint and end values.
-NavState Rk4(const NavState& s, const ImuSample& a, const ImuSample& m, const ImuSample& b, double h) {
+NavState Rk4(const NavState& s, const ImuSample& a, const ImuSample& m, const ImuSample& b,
+             double h) {
   Vec4 q1, q2, q3, q4;
   Vec3 v1, v2, v3, v4, p1, p2, p3, p4;
   Derivative(s, a.gyro, a.acc, &q1, &v1, &p1);
@@ -89,8 +90,8 @@ TEST(ImuSynth, NoiseFreeSamplesIntegrateToTheTrajectory) {
     s = Rk4(s, imu.samples[k], imu.samples[k + 1], imu.samples[k + 2], h);
   }
   const TrajectoryState s1 = traj.State(10.0);
-  std::printf("RK4 drift after 10 s: position %.3g m, velocity %.3g m/s\n", (s.p - s1.T_W_B.translation()).norm(),
-              (s.v - s1.v_W).norm());
+  std::printf("RK4 drift after 10 s: position %.3g m, velocity %.3g m/s\n",
+              (s.p - s1.T_W_B.translation()).norm(), (s.v - s1.v_W).norm());
   EXPECT_LT((s.p - s1.T_W_B.translation()).norm(), 1e-3);
   EXPECT_LT((s.v - s1.v_W).norm(), 1e-4);
   EXPECT_LT(LogQuat(s.q.conjugate() * s1.T_W_B.rotation()).norm(), 1e-6);

@@ -1,5 +1,6 @@
-// `fsp render` end to end on a small scene: the folder is a readable EuRoC recording with consistent
-// ground truth, two renders are byte-identical (whatever the thread count), bad scenes fail cleanly.
+// `fsp render` end to end on a small scene: the folder is a readable EuRoC recording with
+// consistent ground truth, two renders are byte-identical (whatever the thread count), bad scenes
+// fail cleanly.
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -101,9 +102,10 @@ TEST(RenderCli, WritesAReadableSequenceWithConsistentGroundTruth) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("20 frames 160x120"), std::string::npos) << run.out;
   const fs::path seq = dir / "seq";
-  for (const char* f : {"mav0/cam0/data.csv", "mav0/cam0/sensor.yaml", "mav0/imu0/data.csv", "mav0/imu0/sensor.yaml",
-                        "mav0/state_groundtruth_estimate0/data.csv", "objects_gt.json", "observations_gt.csv",
-                        "video.mp4", "imu.csv", "calib.yaml", "top_view.png"}) {
+  for (const char* f :
+       {"mav0/cam0/data.csv", "mav0/cam0/sensor.yaml", "mav0/imu0/data.csv",
+        "mav0/imu0/sensor.yaml", "mav0/state_groundtruth_estimate0/data.csv", "objects_gt.json",
+        "observations_gt.csv", "video.mp4", "imu.csv", "calib.yaml", "top_view.png"}) {
     EXPECT_TRUE(fs::exists(seq / f)) << f;
   }
 
@@ -138,7 +140,8 @@ TEST(RenderCli, WritesAReadableSequenceWithConsistentGroundTruth) {
 
   // Ground truth: states at the IMU times, the trajectory's poses; IMU readings with the noise.
   const Scene scene = LoadScene(scene_path.string());
-  const std::vector<StateSample> gt = ReadEurocGroundTruth((seq / "mav0/state_groundtruth_estimate0/data.csv").string());
+  const std::vector<StateSample> gt =
+      ReadEurocGroundTruth((seq / "mav0/state_groundtruth_estimate0/data.csv").string());
   ASSERT_EQ(gt.size(), 201u);
   for (size_t k = 0; k < gt.size(); k += 20) {
     const TrajectoryState s = scene.trajectory.State(k * 0.005);
@@ -169,16 +172,19 @@ TEST(RenderCli, WritesAReadableSequenceWithConsistentGroundTruth) {
       EXPECT_LT((uv - row.corners[j]).norm(), 1e-3);  // 4 decimals in the file
     }
   }
-  EXPECT_GT(fully, 20);  // the poster and the tag are in view throughout
+  EXPECT_GT(fully, 20);                             // the poster and the tag are in view throughout
   EXPECT_LT(fully, static_cast<int>(rows.size()));  // the door's top leaves the image
 }
 
 TEST(RenderCli, SameSceneAndSeedGiveIdenticalFiles) {
   const fs::path dir = test::ScratchDir();
   const fs::path scene = WriteScene(dir, "small.yaml", kSmallScene);
-  const auto a = test::RunFsp("render " + scene.string() + " --out " + (dir / "a").string() + " --threads 2");
-  const auto b = test::RunFsp("render " + scene.string() + " --out " + (dir / "b").string() + " --threads 1");
-  const auto c = test::RunFsp("render " + scene.string() + " --out " + (dir / "c").string() + " --seed 5");
+  const auto a =
+      test::RunFsp("render " + scene.string() + " --out " + (dir / "a").string() + " --threads 2");
+  const auto b =
+      test::RunFsp("render " + scene.string() + " --out " + (dir / "b").string() + " --threads 1");
+  const auto c =
+      test::RunFsp("render " + scene.string() + " --out " + (dir / "c").string() + " --seed 5");
   ASSERT_EQ(a.exit_code, 0) << a.err;
   ASSERT_EQ(b.exit_code, 0) << b.err;
   ASSERT_EQ(c.exit_code, 0) << c.err;
@@ -200,13 +206,14 @@ TEST(RenderCli, BadScenesFailWithOneLine) {
   const fs::path dir = test::ScratchDir();
   std::string text = kSmallScene;
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"rate_hz: 20,", "rate_hz: 20, gain: 2,"},                              // unknown key
-      {"fx: 115.0, ", ""},                                                     // missing field
-      {"width: 0.6", "width: 0.0"},                                            // zero-area rectangle
-      {"duration_s: 1", "duration_s: 5"},                                      // trajectory too short
+      {"rate_hz: 20,", "rate_hz: 20, gain: 2,"},  // unknown key
+      {"fx: 115.0, ", ""},                        // missing field
+      {"width: 0.6", "width: 0.0"},               // zero-area rectangle
+      {"duration_s: 1", "duration_s: 5"},         // trajectory too short
   };
-  const std::vector<std::string> expected = {"unknown key 'gain' in camera", "missing field 'fx' in camera",
-                                             "zero-area rectangle", "trajectory ends at t = 1.2 s"};
+  const std::vector<std::string> expected = {"unknown key 'gain' in camera",
+                                             "missing field 'fx' in camera", "zero-area rectangle",
+                                             "trajectory ends at t = 1.2 s"};
   for (size_t i = 0; i < cases.size(); ++i) {
     std::string bad = text;
     bad.replace(bad.find(cases[i].first), cases[i].first.size(), cases[i].second);
@@ -217,11 +224,13 @@ TEST(RenderCli, BadScenesFailWithOneLine) {
     EXPECT_NE(r.err.find(p.string() + ":"), std::string::npos) << r.err;  // names the file
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   }
-  const auto missing = test::RunFsp("render " + (dir / "nope.yaml").string() + " --out " + (dir / "out").string());
+  const auto missing =
+      test::RunFsp("render " + (dir / "nope.yaml").string() + " --out " + (dir / "out").string());
   EXPECT_NE(missing.exit_code, 0);
   EXPECT_EQ(std::count(missing.err.begin(), missing.err.end(), '\n'), 1) << missing.err;
   const fs::path good = WriteScene(dir, "good.yaml", kSmallScene);
-  const auto longer = test::RunFsp("render " + good.string() + " --out " + (dir / "out").string() + " --duration 3");
+  const auto longer = test::RunFsp("render " + good.string() + " --out " + (dir / "out").string() +
+                                   " --duration 3");
   EXPECT_NE(longer.exit_code, 0);
   EXPECT_NE(longer.err.find("longer than the trajectory"), std::string::npos) << longer.err;
 }

@@ -1,5 +1,6 @@
-// Ray-casting renderer: its images agree with its ground truth (corners found in the image against the
-// camera model's projection, AprilTag decoding), quads crossing the camera plane, occlusion, determinism.
+// Ray-casting renderer: its images agree with its ground truth (corners found in the image against
+// the camera model's projection, AprilTag decoding), quads crossing the camera plane, occlusion,
+// determinism.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -8,10 +9,10 @@
 #include <thread>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>
 #include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
 #include <opencv2/core.hpp>
 
 #include "fsp/sim/renderer.h"
@@ -55,7 +56,8 @@ TexturedQuad Quad(int id, const Vec3& origin, const Vec3& u, const Vec3& v, Text
 }
 
 std::array<Vec3, 4> Corners(const TexturedQuad& q) {
-  return {q.origin_W, q.origin_W + q.axis_u_W, q.origin_W + q.axis_u_W + q.axis_v_W, q.origin_W + q.axis_v_W};
+  return {q.origin_W, q.origin_W + q.axis_u_W, q.origin_W + q.axis_u_W + q.axis_v_W,
+          q.origin_W + q.axis_v_W};
 }
 
 double Pixel(const cv::Mat& img, int x, int y) {
@@ -64,12 +66,13 @@ double Pixel(const cv::Mat& img, int x, int y) {
   return img.at<uint8_t>(y, x);
 }
 
-// Sub-pixel edge points (distorted pixels) of one side of a rectangle whose border contrasts with its
-// surroundings. The expected side (a -> b) only places the search window: along each integer column
-// (row, for steep sides) near the side, the grey profile is scanned across the edge and the crossing of
-// the level halfway between the far-inside and far-outside values is interpolated linearly.
-std::vector<Vec2> EdgePoints(const cv::Mat& img, const PinholeRadtan& cam, const Vec2& a, const Vec2& b,
-                             const Vec2& inside) {
+// Sub-pixel edge points (distorted pixels) of one side of a rectangle whose border contrasts with
+// its surroundings. The expected side (a -> b) only places the search window: along each integer
+// column (row, for steep sides) near the side, the grey profile is scanned across the edge and the
+// crossing of the level halfway between the far-inside and far-outside values is interpolated
+// linearly.
+std::vector<Vec2> EdgePoints(const cv::Mat& img, const PinholeRadtan& cam, const Vec2& a,
+                             const Vec2& b, const Vec2& inside) {
   const Vec2 A = cam.UndistortPixel(a), B = cam.UndistortPixel(b);
   const bool horizontal = std::abs(b.x() - a.x()) > std::abs(b.y() - a.y());
   const int steps = static_cast<int>((b - a).norm());
@@ -84,7 +87,8 @@ std::vector<Vec2> EdgePoints(const cv::Mat& img, const PinholeRadtan& cam, const
     const double in_dir = (horizontal ? inside.y() - p.y() : inside.x() - p.x()) > 0 ? 1.0 : -1.0;
     auto at = [&](int s) { return horizontal ? Pixel(img, line, s) : Pixel(img, s, line); };
     const int c = static_cast<int>(std::lround(centre));
-    const double v_in = at(c + static_cast<int>(3 * in_dir)), v_out = at(c - static_cast<int>(4 * in_dir));
+    const double v_in = at(c + static_cast<int>(3 * in_dir)),
+                 v_out = at(c - static_cast<int>(4 * in_dir));
     if (std::abs(v_in - v_out) < 40) continue;  // no clear edge here
     const double mid = 0.5 * (v_in + v_out);
     double best = 1e9, pos = 0.0;
@@ -112,9 +116,10 @@ Vec3 FitLine(const std::vector<Vec2>& pts) {
   return Vec3(n.x(), n.y(), n.dot(mean));
 }
 
-// Corners of the rectangle found in the image (distorted px): edge points of each side are undistorted
-// with the camera model, fitted with lines, and adjacent lines intersected.
-std::array<Vec2, 4> FindCorners(const cv::Mat& img, const PinholeRadtan& cam, const std::array<Vec2, 4>& approx) {
+// Corners of the rectangle found in the image (distorted px): edge points of each side are
+// undistorted with the camera model, fitted with lines, and adjacent lines intersected.
+std::array<Vec2, 4> FindCorners(const cv::Mat& img, const PinholeRadtan& cam,
+                                const std::array<Vec2, 4>& approx) {
   const Vec2 inside = 0.25 * (approx[0] + approx[1] + approx[2] + approx[3]);
   std::array<Vec3, 4> lines;
   for (int j = 0; j < 4; ++j) {
@@ -134,12 +139,13 @@ std::array<Vec2, 4> FindCorners(const cv::Mat& img, const PinholeRadtan& cam, co
   return corners;
 }
 
-// A kPlain rectangle (dark border) on a bright kPlain wall, coplanar with the wall (the object must win
-// the depth tie), seen obliquely.
+// A kPlain rectangle (dark border) on a bright kPlain wall, coplanar with the wall (the object must
+// win the depth tie), seen obliquely.
 void CheckPlainRectangleCorners(bool distorted) {
   const PinholeRadtan cam = SmallCamera(distorted);
   const TexturedQuad wall = Quad(-1, {-3, 2, -2}, {6, 0, 0}, {0, 0, 4}, TextureKind::kPlain);
-  const TexturedQuad obj = Quad(5, {-0.35, 2, -0.25}, {0.7, 0, 0}, {0, 0, 0.5}, TextureKind::kPlain);
+  const TexturedQuad obj =
+      Quad(5, {-0.35, 2, -0.25}, {0.7, 0, 0}, {0, 0, 0.5}, TextureKind::kPlain);
   const Renderer renderer(cam, {wall, obj}, RenderOptions{});
   const std::vector<Rigid3> poses = {LookAt({-0.7, 0.7, 0.35}, {0.02, 2, 0.01}, 0.14),
                                      LookAt({0.9, 0.9, -0.3}, {-0.05, 2, 0.03}, -0.2)};
@@ -151,33 +157,40 @@ void CheckPlainRectangleCorners(bool distorted) {
     for (int j = 0; j < 4; ++j) expected[j] = cam.Project(T_C_W * P[j]);
     const std::array<Vec2, 4> got = FindCorners(img, cam, expected);
     for (int j = 0; j < 4; ++j) {
-      std::printf("distorted=%d pose %zu corner s%d: got (%.3f, %.3f) expected (%.3f, %.3f) err %.3f px\n",
-                  distorted, k, j + 1, got[j].x(), got[j].y(), expected[j].x(), expected[j].y(),
-                  (got[j] - expected[j]).norm());
+      std::printf(
+          "distorted=%d pose %zu corner s%d: got (%.3f, %.3f) expected (%.3f, %.3f) err %.3f px\n",
+          distorted, k, j + 1, got[j].x(), got[j].y(), expected[j].x(), expected[j].y(),
+          (got[j] - expected[j]).norm());
       EXPECT_LT((got[j] - expected[j]).norm(), 0.3) << "pose " << k << " corner s" << j + 1;
     }
   }
 }
 
-TEST(Renderer, PlainRectangleCornersMatchProjection) { CheckPlainRectangleCorners(false); }
+TEST(Renderer, PlainRectangleCornersMatchProjection) {
+  CheckPlainRectangleCorners(false);
+}
 
-TEST(Renderer, PlainRectangleCornersMatchProjectionWithDistortion) { CheckPlainRectangleCorners(true); }
+TEST(Renderer, PlainRectangleCornersMatchProjectionWithDistortion) {
+  CheckPlainRectangleCorners(true);
+}
 
-// A floor quad from 5 m behind to 5 m in front of the camera, 1 m below it: only rays below the horizon
-// that meet it within 5 m in front (y_n >= 0.2, |x_n| <= 2 y_n) may be covered.
+// A floor quad from 5 m behind to 5 m in front of the camera, 1 m below it: only rays below the
+// horizon that meet it within 5 m in front (y_n >= 0.2, |x_n| <= 2 y_n) may be covered.
 TEST(Renderer, QuadCrossingTheCameraPlaneShowsOnlyItsVisiblePart) {
   PinholeRadtan cam = SmallCamera(false);
   cam.fx = cam.fy = 200.0;
   cam.cx = 160.0;
   cam.cy = 120.0;
-  // In C (T_W_C = identity): plane y = 1, x in [-2, 2], z in [-5, 5]; normal u x v = -y (towards the camera).
+  // In C (T_W_C = identity): plane y = 1, x in [-2, 2], z in [-5, 5]; normal u x v = -y (towards
+  // the camera).
   const TexturedQuad floor = Quad(-1, {-2, 1, -5}, {4, 0, 0}, {0, 0, 10}, TextureKind::kPlain);
   RenderOptions opt;
   opt.background = 0.0;
   const Renderer renderer(cam, {floor}, opt);
   const cv::Mat img = renderer.Render(Rigid3::Identity());
   int must_cover = 0, must_not = 0, wrong = 0;
-  const double margin = 1.5 / cam.fx;  // pixels whose footprint straddles the boundary are not judged
+  const double margin =
+      1.5 / cam.fx;  // pixels whose footprint straddles the boundary are not judged
   for (int v = 0; v < cam.height; ++v)
     for (int u = 0; u < cam.width; ++u) {
       const double x = (u - cam.cx) / cam.fx, y = (v - cam.cy) / cam.fy;
@@ -235,8 +248,8 @@ TEST(Renderer, TagsDecodeWithTheirIdAndCorners) {
     for (int j = 0; j < 4; ++j) {
       const Vec2 expected = cam.Project(T_W_C.Inverse() * P[j]);
       const Vec2 got(d->p[j][0] - 0.5, d->p[j][1] - 0.5);
-      std::printf("tag %d corner p[%d]: got (%.3f, %.3f) expected (%.3f, %.3f) err %.3f px\n", c.id, j,
-                  got.x(), got.y(), expected.x(), expected.y(), (got - expected).norm());
+      std::printf("tag %d corner p[%d]: got (%.3f, %.3f) expected (%.3f, %.3f) err %.3f px\n", c.id,
+                  j, got.x(), got.y(), expected.x(), expected.y(), (got - expected).norm());
       EXPECT_LT((got - expected).norm(), 0.5) << "tag " << c.id << " corner " << j;
     }
     apriltag_detections_destroy(dets);
@@ -251,13 +264,15 @@ TEST(Renderer, TagTextureMatchesLibraryImage) {
   for (int id : {0, 1, 17, 586}) {
     TexturedQuad q = Quad(id, Vec3::Zero(), Vec3::UnitX(), Vec3::UnitY(), TextureKind::kTag);
     q.tag_id = id;
-    const cv::Mat tex = MakeTexture(q, 101, 101);  // 10 cells of 10 texels, boundaries on texel centres
+    const cv::Mat tex =
+        MakeTexture(q, 101, 101);  // 10 cells of 10 texels, boundaries on texel centres
     image_u8_t* ref = apriltag_to_image(fam, id);
     ASSERT_EQ(ref->width, 10);
     for (int r = 0; r < 10; ++r)
       for (int c = 0; c < 10; ++c) {
         const bool white = tex.at<uint8_t>(r * 10 + 5, c * 10 + 5) > 128;
-        EXPECT_EQ(white, ref->buf[r * ref->stride + c] > 128) << "tag " << id << " cell row " << r << " col " << c;
+        EXPECT_EQ(white, ref->buf[r * ref->stride + c] > 128)
+            << "tag " << id << " cell row " << r << " col " << c;
       }
     // image_u8_destroy is not exported by the Debian library; it frees the buffer and the struct.
     std::free(ref->buf);
@@ -272,7 +287,8 @@ TEST(Renderer, PointVisibleAccountsForOcclusion) {
   const TexturedQuad wall = Quad(-1, {-3, 2, -2}, {6, 0, 0}, {0, 0, 4}, TextureKind::kWall);
   const TexturedQuad obj = Quad(1, {-0.3, 2, -0.2}, {0.6, 0, 0}, {0, 0, 0.4}, TextureKind::kPlain);
   // 0.2 x 0.2 m plate 0.5 m in front of the wall, over the corner s3 = (0.3, 2, 0.2).
-  const TexturedQuad occluder = Quad(2, {0.15, 1.5, 0.08}, {0.2, 0, 0}, {0, 0, 0.2}, TextureKind::kPlain);
+  const TexturedQuad occluder =
+      Quad(2, {0.15, 1.5, 0.08}, {0.2, 0, 0}, {0, 0, 0.2}, TextureKind::kPlain);
   const Renderer renderer(cam, {wall, obj, occluder}, RenderOptions{});
   const Rigid3 T_W_C = LookAt({0, 0.5, 0}, {0, 2, 0}, 0.0);
   const auto P = Corners(obj);
@@ -284,10 +300,13 @@ TEST(Renderer, PointVisibleAccountsForOcclusion) {
   for (const Vec3& p : Corners(occluder)) EXPECT_TRUE(renderer.PointVisible(T_W_C, p, 2));
   // A point behind the camera is never visible.
   EXPECT_FALSE(renderer.PointVisible(LookAt({0, 0.5, 0}, {0, -1, 0}, 0.0), P[0], 1));
-  // The image agrees: the hidden corner shows the occluder's bright face, not the object's dark border.
+  // The image agrees: the hidden corner shows the occluder's bright face, not the object's dark
+  // border.
   const cv::Mat img = renderer.Render(T_W_C);
   const Vec2 uv = cam.Project(T_W_C.Inverse() * P[2]);
-  EXPECT_GT(Pixel(img, static_cast<int>(std::lround(uv.x())), static_cast<int>(std::lround(uv.y()))), 150);
+  EXPECT_GT(
+      Pixel(img, static_cast<int>(std::lround(uv.x())), static_cast<int>(std::lround(uv.y()))),
+      150);
 }
 
 std::vector<TexturedQuad> RoomScene() {
@@ -352,8 +371,9 @@ TEST(Renderer, MotionBlurAveragesPosesAlongTheExposure) {
   renderer.Render(Interpolate(open, close, 0.5)).convertTo(sharp, CV_32F);
   const double err_blurred = cv::norm(blurred, mean, cv::NORM_L1) / mean.total();
   const double err_sharp = cv::norm(sharp, mean, cv::NORM_L1) / mean.total();
-  std::printf("mean |blurred - mean of 4 renders| = %.3f, |sharp midpoint - mean| = %.3f grey levels\n",
-              err_blurred, err_sharp);
+  std::printf(
+      "mean |blurred - mean of 4 renders| = %.3f, |sharp midpoint - mean| = %.3f grey levels\n",
+      err_blurred, err_sharp);
   EXPECT_LT(err_blurred, 0.5 * err_sharp);
   EXPECT_GT(err_sharp, 1.0);
 }

@@ -1,4 +1,5 @@
-// Scene files: both object forms, defaults, room quads, and a clear error for each kind of bad input.
+// Scene files: both object forms, defaults, room quads, and a clear error for each kind of bad
+// input.
 #include <fstream>
 #include <string>
 
@@ -11,7 +12,8 @@
 namespace fsp::sim {
 namespace {
 
-const char* kScene = R"(camera: {width: 160, height: 120, fx: 115.0, fy: 115.0, cx: 80.0, cy: 60.0, rate_hz: 20}
+const char* kScene =
+    R"(camera: {width: 160, height: 120, fx: 115.0, fy: 115.0, cx: 80.0, cy: 60.0, rate_hz: 20}
 imu: {rate_hz: 200, gyroscope_noise_density: 1.7e-4, accelerometer_noise_density: 2.0e-3,
       gyroscope_random_walk: 1.9e-5, accelerometer_random_walk: 3.0e-3}
 room: {min: [0, 0, 0], max: [4, 3, 2.5]}
@@ -84,7 +86,8 @@ TEST(Scene, RoomQuadsFaceInwardAndObjectsKeepTheirCorners) {
   const TexturedQuad& door = quads[6];
   EXPECT_EQ(door.id, 1);
   EXPECT_EQ(door.origin_W, scene.objects[0].corners_W[0]);
-  EXPECT_LT((door.origin_W + door.axis_u_W + door.axis_v_W - scene.objects[0].corners_W[2]).norm(), 1e-12);
+  EXPECT_LT((door.origin_W + door.axis_u_W + door.axis_v_W - scene.objects[0].corners_W[2]).norm(),
+            1e-12);
   EXPECT_EQ(door.offset_m, 0.0);
   EXPECT_EQ(quads[8].tag_id, 5);
 }
@@ -100,24 +103,32 @@ TEST(Scene, UnknownKeySaysWhichAndWhere) {
 }
 
 TEST(Scene, MissingFieldIsNamed) {
-  EXPECT_NE(ErrorOf(Replace(kScene, "fx: 115.0, ", "")).find("scene.yaml:1: missing field 'fx' in camera"),
+  EXPECT_NE(ErrorOf(Replace(kScene, "fx: 115.0, ", ""))
+                .find("scene.yaml:1: missing field 'fx' in camera"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(Replace(kScene, "duration_s: 2\n", "")).find("scene.yaml: missing field 'duration_s'"),
+  EXPECT_NE(ErrorOf(Replace(kScene, "duration_s: 2\n", ""))
+                .find("scene.yaml: missing field 'duration_s'"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(Replace(kScene, "width: 0.9, ", "")).find("missing field 'width' in objects[1] (id 2)"),
+  EXPECT_NE(ErrorOf(Replace(kScene, "width: 0.9, ", ""))
+                .find("missing field 'width' in objects[1] (id 2)"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(Replace(kScene, "tag_id: 5, ", "")).find("missing field 'tag_id' in objects[2] (id 3)"),
+  EXPECT_NE(ErrorOf(Replace(kScene, "tag_id: 5, ", ""))
+                .find("missing field 'tag_id' in objects[2] (id 3)"),
             std::string::npos);
 }
 
 TEST(Scene, BadRectanglesAreRejected) {
-  const std::string zero = ErrorOf(Replace(kScene, "[1.9, 0, 0], [1.9, 0, 2]", "[1, 0, 0], [1, 0, 2]"));
-  EXPECT_NE(zero.find("scene.yaml:6: objects[0] (id 1): zero-area rectangle"), std::string::npos) << zero;
+  const std::string zero =
+      ErrorOf(Replace(kScene, "[1.9, 0, 0], [1.9, 0, 2]", "[1, 0, 0], [1, 0, 2]"));
+  EXPECT_NE(zero.find("scene.yaml:6: objects[0] (id 1): zero-area rectangle"), std::string::npos)
+      << zero;
   const std::string zero_rpy = ErrorOf(Replace(kScene, "width: 0.9", "width: 0"));
   EXPECT_NE(zero_rpy.find("objects[1] (id 2): zero-area rectangle"), std::string::npos) << zero_rpy;
-  const std::string skew = ErrorOf(Replace(kScene, "[1.9, 0, 2], [1, 0, 2]", "[2.2, 0, 2], [1.3, 0, 2]"));
+  const std::string skew =
+      ErrorOf(Replace(kScene, "[1.9, 0, 2], [1, 0, 2]", "[2.2, 0, 2], [1.3, 0, 2]"));
   EXPECT_NE(skew.find("not a rectangle: the angle at s1"), std::string::npos) << skew;
-  const std::string bent = ErrorOf(Replace(kScene, "[1.9, 0, 2], [1, 0, 2]", "[1.9, 0.2, 2], [1, 0, 2]"));
+  const std::string bent =
+      ErrorOf(Replace(kScene, "[1.9, 0, 2], [1, 0, 2]", "[1.9, 0.2, 2], [1, 0, 2]"));
   EXPECT_NE(bent.find("corners are not planar"), std::string::npos) << bent;
   const std::string order = ErrorOf(Replace(kScene, "[1.9, 0, 0], [1.9, 0, 2], [1, 0, 2]",
                                             "[1.9, 0, 0], [1, 0, 2], [1.9, 0, 2]"));
@@ -126,27 +137,33 @@ TEST(Scene, BadRectanglesAreRejected) {
 
 TEST(Scene, TrajectoryShorterThanDurationIsRejected) {
   const std::string err = ErrorOf(Replace(kScene, "duration_s: 2", "duration_s: 3"));
-  EXPECT_NE(err.find("scene.yaml:10: trajectory ends at t = 2.5 s, before duration_s = 3 s"), std::string::npos)
+  EXPECT_NE(err.find("scene.yaml:10: trajectory ends at t = 2.5 s, before duration_s = 3 s"),
+            std::string::npos)
       << err;
   const std::string late = ErrorOf(Replace(kScene, "[[0, 2, 1.5", "[[0.5, 2, 1.5"));
   EXPECT_NE(late.find("must start at t = 0"), std::string::npos) << late;
 }
 
 TEST(Scene, OtherBadValues) {
-  EXPECT_NE(ErrorOf(Replace(kScene, "class: door", "class: sofa")).find("unknown class 'sofa'"), std::string::npos);
+  EXPECT_NE(ErrorOf(Replace(kScene, "class: door", "class: sofa")).find("unknown class 'sofa'"),
+            std::string::npos);
   EXPECT_NE(ErrorOf(Replace(kScene, "tag_id: 5", "tag_id: 600")).find("tag_id must be in 0..586"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(Replace(kScene, "{id: 2,", "{id: 1,")).find("duplicate object id 1"), std::string::npos);
-  EXPECT_NE(ErrorOf(Replace(kScene, "fx: 115.0", "fx: abc")).find("camera.fx must be a number, not 'abc'"),
+  EXPECT_NE(ErrorOf(Replace(kScene, "{id: 2,", "{id: 1,")).find("duplicate object id 1"),
             std::string::npos);
-  EXPECT_NE(ErrorOf(Replace(kScene, "max: [4, 3, 2.5]", "max: [4, 3, 0]")).find("room: max must exceed min"),
+  EXPECT_NE(ErrorOf(Replace(kScene, "fx: 115.0", "fx: abc"))
+                .find("camera.fx must be a number, not 'abc'"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Replace(kScene, "max: [4, 3, 2.5]", "max: [4, 3, 0]"))
+                .find("room: max must exceed min"),
             std::string::npos);
   EXPECT_NE(ErrorOf("camera: [1, 2\n").find("scene.yaml:"), std::string::npos);
   try {
     LoadScene("/nonexistent/scene.yaml");
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("/nonexistent/scene.yaml: cannot open"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/scene.yaml: cannot open"),
+              std::string::npos);
   }
 }
 
@@ -160,8 +177,10 @@ TEST(Scene, PoseFileRelativeToTheScene) {
       tum << t << " " << 1.0 + 0.1 * i * 0.01 << " 1 1.2 0 0 0 1\n";
     }
   }
-  const std::string text = Replace(kScene, "waypoints: [[0, 2, 1.5, 1.2, -90], [1, 2, 1.5, 1.2, -90], [2.5, 2.3, 1.2, 1.2, -80]]",
-                                   "file: flight.tum");
+  const std::string text = Replace(
+      kScene,
+      "waypoints: [[0, 2, 1.5, 1.2, -90], [1, 2, 1.5, 1.2, -90], [2.5, 2.3, 1.2, 1.2, -80]]",
+      "file: flight.tum");
   {
     std::ofstream out(dir / "scene.yaml");
     out << text;

@@ -59,7 +59,8 @@ TEST(Trajectory, JerkAndAngularVelocityAreContinuousAtWaypoints) {
     if (w.t_s <= 0.0 || w.t_s >= 11.0) continue;
     const double e = 1e-9;
     for (int k = 0; k <= 3; ++k) {
-      EXPECT_LT((traj.FlatDerivative(w.t_s - e, k) - traj.FlatDerivative(w.t_s + e, k)).norm(), 1e-5)
+      EXPECT_LT((traj.FlatDerivative(w.t_s - e, k) - traj.FlatDerivative(w.t_s + e, k)).norm(),
+                1e-5)
           << "derivative " << k << " at t = " << w.t_s;
     }
     EXPECT_LT((traj.State(w.t_s - e).w_B - traj.State(w.t_s + e).w_B).norm(), 1e-6);
@@ -108,7 +109,8 @@ TEST(Trajectory, ResamplesPoseFileSmoothly) {
 
 TEST(Trajectory, RejectsBadWaypoints) {
   EXPECT_THROW(Trajectory::FromWaypoints({{0.0, Vec3::Zero(), 0.0}}), InputError);
-  EXPECT_THROW(Trajectory::FromWaypoints({{0.0, Vec3::Zero(), 0.0}, {0.0, Vec3::Ones(), 0.0}}), InputError);
+  EXPECT_THROW(Trajectory::FromWaypoints({{0.0, Vec3::Zero(), 0.0}, {0.0, Vec3::Ones(), 0.0}}),
+               InputError);
   // Dropping 5 m in 1 s from rest and stopping needs more than free fall.
   try {
     Trajectory::FromWaypoints({{0.0, Vec3(0, 0, 6), 0.0}, {1.0, Vec3(0, 0, 1), 0.0}});

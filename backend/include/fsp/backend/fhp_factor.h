@@ -1,11 +1,13 @@
 // Ceres reprojection factor of one corner of a Framed-Homogeneous-Points rectangle (the FSP paper's
-// baseline, DESIGN.md §3): every corner is an independent anchored inverse-depth point, 2 residuals.
+// baseline, DESIGN.md §3): every corner is an independent anchored inverse-depth point, 2
+// residuals.
 //
 //   h = R_C_W ( ω (p_W_F − p_W_C) + R_W_F (u, v, 1) ),   z = π(K h),   e = (z − z^obs) / σ_px
 //
-// Block fhp[3] = (u, v, log ω) (fsp_landmark.h; d/dlog ω = ω d/dω). Same homogeneous trick as the FSP
-// factor: when C = F the prediction is π(K (u, v, 1)), independent of ω. Cheirality as in fsp_factor.h:
-// h_z ≤ min_h_z makes Evaluate return false (check PredictFhpCorners(...).in_front before adding).
+// Block fhp[3] = (u, v, log ω) (fsp_landmark.h; d/dlog ω = ω d/dω). Same homogeneous trick as the
+// FSP factor: when C = F the prediction is π(K (u, v, 1)), independent of ω. Cheirality as in
+// fsp_factor.h: h_z ≤ min_h_z makes Evaluate return false (check PredictFhpCorners(...).in_front
+// before adding).
 #pragma once
 
 #include <ceres/sized_cost_function.h>
@@ -21,8 +23,10 @@ CornerPrediction PredictFhpCorners(const Mat3& K, const Rigid3& T_W_C, const Rig
 // Blocks (camera body pose[7], anchor body pose[7], fhp corner[3]); ambient Jacobians.
 class FhpFactor final : public ceres::SizedCostFunction<2, 7, 7, 3> {
  public:
-  FhpFactor(const Vec2& corner_px, const Mat3& K, const Rigid3& T_B_C, const FspFactorOptions& options);
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+  FhpFactor(const Vec2& corner_px, const Mat3& K, const Rigid3& T_B_C,
+            const FspFactorOptions& options);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
 
  private:
   Vec2 obs_;
@@ -36,7 +40,8 @@ class FhpFactor final : public ceres::SizedCostFunction<2, 7, 7, 3> {
 class FhpAnchorFactor final : public ceres::SizedCostFunction<2, 3> {
  public:
   FhpAnchorFactor(const Vec2& corner_px, const Mat3& K, const FspFactorOptions& options);
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
 
  private:
   Vec2 obs_;

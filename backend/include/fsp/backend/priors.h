@@ -8,14 +8,16 @@
 
 namespace fsp::backend {
 
-// Prior on a body pose block (DESIGN.md §4, gauge): r = [ (p − p0) / σ_p ;  S · Log(R R0ᵀ) ] with the
-// rotation error in the WORLD frame (left), so its z component is the yaw error and x, y are roll and
-// pitch about world axes: S = diag(1/σ_rp, 1/σ_rp, 1/σ_yaw). Block: pose[7]. Ambient Jacobian through
-// LeftRotationJacobianWrtQuat (fsp_landmark.h), consistent with any quaternion manifold.
+// Prior on a body pose block (DESIGN.md §4, gauge): r = [ (p − p0) / σ_p ;  S · Log(R R0ᵀ) ] with
+// the rotation error in the WORLD frame (left), so its z component is the yaw error and x, y are
+// roll and pitch about world axes: S = diag(1/σ_rp, 1/σ_rp, 1/σ_yaw). Block: pose[7]. Ambient
+// Jacobian through LeftRotationJacobianWrtQuat (fsp_landmark.h), consistent with any quaternion
+// manifold.
 class PosePrior final : public ceres::SizedCostFunction<6, 7> {
  public:
   PosePrior(const Rigid3& T_W_B0, double sigma_p, double sigma_roll_pitch, double sigma_yaw);
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
 
  private:
   Rigid3 T0_;
@@ -26,7 +28,8 @@ class PosePrior final : public ceres::SizedCostFunction<6, 7> {
 class SpeedBiasPrior final : public ceres::SizedCostFunction<9, 9> {
  public:
   SpeedBiasPrior(const Eigen::Matrix<double, 9, 1>& sb0, const Eigen::Matrix<double, 9, 1>& sigma);
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
 
  private:
   Eigen::Matrix<double, 9, 1> sb0_, inv_sigma_;
@@ -37,7 +40,8 @@ class SpeedBiasPrior final : public ceres::SizedCostFunction<9, 9> {
 class LogWidthPrior final : public ceres::SizedCostFunction<1, 5> {
  public:
   LogWidthPrior(double width_prior_m, double sigma_log);
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
 
  private:
   double log_w0_, inv_sigma_;

@@ -6,8 +6,8 @@
 //                      ProductManifold<EuclideanManifold<3>, EigenQuaternionManifold>, i.e.
 //                      pose ⊞ (δp, δθ) = (p + δp,  Exp(2δθ) ⊗ q):
 //                      δp in the WORLD frame (not p + R δp as fsp::Rigid3::Plus); δθ is Ceres'
-//                      quaternion tangent: a LEFT (world-frame) rotation by the rotation vector 2δθ.
-//                      Factors are written in the right tangent and lifted (see manifolds.h).
+//                      quaternion tangent: a LEFT (world-frame) rotation by the rotation vector
+//                      2δθ. Factors are written in the right tangent and lifted (see manifolds.h).
 //                    Tangent size 6, order (δp, δθ).
 //   speed_bias[9]  = (v_W x, y, z,  b_g x, y, z,  b_a x, y, z)
 //                    velocity of B in W [m/s], gyroscope bias [rad/s], accelerometer bias [m/s^2],
@@ -26,7 +26,9 @@ constexpr int kPoseTangentSize = 6;  // (δp_W, δθ_B)
 constexpr int kSpeedBiasSize = 9;    // (v_W, b_g, b_a)
 
 // Gravity in the world frame (z up): g_W = (0, 0, -magnitude) [m/s^2].
-inline Vec3 GravityW(double magnitude = 9.81) { return Vec3(0.0, 0.0, -magnitude); }
+inline Vec3 GravityW(double magnitude = 9.81) {
+  return Vec3(0.0, 0.0, -magnitude);
+}
 
 // Pose block <-> Rigid3 (T_W_B).
 inline void PoseToBlock(const Rigid3& T_W_B, double* pose) {
@@ -40,12 +42,24 @@ inline Rigid3 PoseFromBlock(const double* pose) {
 }
 
 // Views of a speed_bias block.
-inline Eigen::Map<Vec3> VelocityOf(double* sb) { return Eigen::Map<Vec3>(sb); }
-inline Eigen::Map<Vec3> GyroBiasOf(double* sb) { return Eigen::Map<Vec3>(sb + 3); }
-inline Eigen::Map<Vec3> AccBiasOf(double* sb) { return Eigen::Map<Vec3>(sb + 6); }
-inline Eigen::Map<const Vec3> VelocityOf(const double* sb) { return Eigen::Map<const Vec3>(sb); }
-inline Eigen::Map<const Vec3> GyroBiasOf(const double* sb) { return Eigen::Map<const Vec3>(sb + 3); }
-inline Eigen::Map<const Vec3> AccBiasOf(const double* sb) { return Eigen::Map<const Vec3>(sb + 6); }
+inline Eigen::Map<Vec3> VelocityOf(double* sb) {
+  return Eigen::Map<Vec3>(sb);
+}
+inline Eigen::Map<Vec3> GyroBiasOf(double* sb) {
+  return Eigen::Map<Vec3>(sb + 3);
+}
+inline Eigen::Map<Vec3> AccBiasOf(double* sb) {
+  return Eigen::Map<Vec3>(sb + 6);
+}
+inline Eigen::Map<const Vec3> VelocityOf(const double* sb) {
+  return Eigen::Map<const Vec3>(sb);
+}
+inline Eigen::Map<const Vec3> GyroBiasOf(const double* sb) {
+  return Eigen::Map<const Vec3>(sb + 3);
+}
+inline Eigen::Map<const Vec3> AccBiasOf(const double* sb) {
+  return Eigen::Map<const Vec3>(sb + 6);
+}
 
 // The state of one keyframe as the solver sees it: raw parameter blocks (stable addresses when the
 // struct itself does not move, e.g. held in a std::deque or by unique_ptr).

@@ -1,8 +1,8 @@
 // Camera-IMU calibration and the readers for the calibration files users have.
 //
 // FSP's own calibration file, calib.yaml (written by WriteCalibration and by `fsp render` beside
-// video.mp4, read back by ReadCalibration). Units: pixels, seconds, SI; numbers are written in their
-// shortest exact decimal form, so a write/read round trip is lossless.
+// video.mp4, read back by ReadCalibration). Units: pixels, seconds, SI; numbers are written in
+// their shortest exact decimal form, so a write/read round trip is lossless.
 //
 //   camera:
 //     width: 640                 # image size [px]
@@ -22,9 +22,9 @@
 //     gyroscope_random_walk: 1.9393e-5         # [rad/s^2/sqrt(Hz)]
 //     accelerometer_random_walk: 3.0e-3        # [m/s^3/sqrt(Hz)]
 //
-// Only pinhole cameras with radial-tangential distortion are supported. A Kalibr camchain with another
-// model (equidistant/fisheye, as TUM-VI's) is rejected by ReadCalibration with "unsupported camera
-// model"; ReadCameraExtrinsics still reads its T_B_C (useful to check conventions).
+// Only pinhole cameras with radial-tangential distortion are supported. A Kalibr camchain with
+// another model (equidistant/fisheye, as TUM-VI's) is rejected by ReadCalibration with "unsupported
+// camera model"; ReadCameraExtrinsics still reads its T_B_C (useful to check conventions).
 #pragma once
 
 #include <cstdint>
@@ -35,35 +35,36 @@
 
 namespace fsp {
 
-// IMU noise as continuous-time densities, Kalibr names and units. The discrete standard deviation of
-// one sample is density / sqrt(dt) (white noise) and density * sqrt(dt) (bias random walk step).
+// IMU noise as continuous-time densities, Kalibr names and units. The discrete standard deviation
+// of one sample is density / sqrt(dt) (white noise) and density * sqrt(dt) (bias random walk step).
 struct ImuNoise {
-  double gyroscope_noise_density = 1.6968e-4;      // [rad/s/sqrt(Hz)]
-  double accelerometer_noise_density = 2.0e-3;     // [m/s^2/sqrt(Hz)]
-  double gyroscope_random_walk = 1.9393e-5;        // [rad/s^2/sqrt(Hz)]
-  double accelerometer_random_walk = 3.0e-3;       // [m/s^3/sqrt(Hz)]
-  double rate_hz = 200.0;                          // nominal sample rate [Hz]
+  double gyroscope_noise_density = 1.6968e-4;   // [rad/s/sqrt(Hz)]
+  double accelerometer_noise_density = 2.0e-3;  // [m/s^2/sqrt(Hz)]
+  double gyroscope_random_walk = 1.9393e-5;     // [rad/s^2/sqrt(Hz)]
+  double accelerometer_random_walk = 3.0e-3;    // [m/s^3/sqrt(Hz)]
+  double rate_hz = 200.0;                       // nominal sample rate [Hz]
   // False with a reason unless every density and the rate are positive and finite.
   bool Check(std::string* why) const;
 };
 
 struct Calibration {
   PinholeRadtan camera;
-  Rigid3 T_B_C;                // camera -> body (IMU). EuRoC T_BS; Kalibr T_imu_cam, or inverse of T_cam_imu.
+  Rigid3 T_B_C;  // camera -> body (IMU). EuRoC T_BS; Kalibr T_imu_cam, or inverse of T_cam_imu.
   ImuNoise imu;
   double camera_rate_hz = 20.0;  // nominal frame rate [Hz]
-  // Camera clock -> IMU clock: a frame stamped t_cam (file name, data.csv or video clock) was taken at
-  // t_imu = t_cam + time_offset_ns. Every Source adds it to its frame times. Kalibr's
+  // Camera clock -> IMU clock: a frame stamped t_cam (file name, data.csv or video clock) was taken
+  // at t_imu = t_cam + time_offset_ns. Every Source adds it to its frame times. Kalibr's
   // timeshift_cam_imu [s] has the same meaning.
   int64_t time_offset_ns = 0;
-  std::string source;          // file(s) it was read from, for messages
-  std::string imu_source;      // file the IMU noise came from; empty = the ImuNoise defaults
+  std::string source;      // file(s) it was read from, for messages
+  std::string imu_source;  // file the IMU noise came from; empty = the ImuNoise defaults
   // False with a reason when the camera, the transform, the rates or the IMU noise are unusable.
   bool Check(std::string* why) const;
 };
 
 // Reads a camera calibration by its content (not its name):
-//  - EuRoC cam0/sensor.yaml (T_BS, intrinsics, distortion_coefficients, resolution, rate_hz), with or
+//  - EuRoC cam0/sensor.yaml (T_BS, intrinsics, distortion_coefficients, resolution, rate_hz), with
+//  or
 //    without the "%YAML:1.0" first line (real EuRoC files lack it; OpenCV-written ones have it);
 //  - a Kalibr camchain (cam0 with T_imu_cam, or T_cam_imu which is inverted; timeshift_cam_imu);
 //  - FSP's own calib.yaml (above).
@@ -73,10 +74,11 @@ struct Calibration {
 Calibration ReadCalibration(const std::string& path);
 // Reads IMU noise from an EuRoC imu0/sensor.yaml, a Kalibr imu chain (imu0: ...) or our calib.yaml.
 ImuNoise ReadImuNoise(const std::string& path);
-// T_B_C (camera -> body) from any file ReadCalibration understands, without checking the camera model
-// (so a TUM-VI equidistant camchain gives its extrinsics).
+// T_B_C (camera -> body) from any file ReadCalibration understands, without checking the camera
+// model (so a TUM-VI equidistant camchain gives its extrinsics).
 Rigid3 ReadCameraExtrinsics(const std::string& path);
-// Writes FSP's calib.yaml (readable by ReadCalibration). Throws InputError when PATH cannot be written.
+// Writes FSP's calib.yaml (readable by ReadCalibration). Throws InputError when PATH cannot be
+// written.
 void WriteCalibration(const Calibration& calib, const std::string& path);
 
 }  // namespace fsp

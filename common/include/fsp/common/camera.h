@@ -1,8 +1,8 @@
 // Pinhole camera with radial-tangential (OpenCV "plumb bob", k1 k2 p1 p2) distortion.
 //
-// Pixels follow OpenCV: the integer coordinate is the pixel centre. Camera frame C: x right, y down,
-// z forward. "Normalised" coordinates are (x/z, y/z) before distortion; "undistorted pixels" are
-// K * normalised, the ideal pinhole image the back end works in.
+// Pixels follow OpenCV: the integer coordinate is the pixel centre. Camera frame C: x right, y
+// down, z forward. "Normalised" coordinates are (x/z, y/z) before distortion; "undistorted pixels"
+// are K * normalised, the ideal pinhole image the back end works in.
 #pragma once
 
 #include <array>
@@ -13,10 +13,10 @@
 namespace fsp {
 
 struct PinholeRadtan {
-  int width = 0;   // image size in pixels
+  int width = 0;  // image size in pixels
   int height = 0;
-  double fx = 0.0, fy = 0.0;  // focal lengths in pixels
-  double cx = 0.0, cy = 0.0;  // principal point in pixels
+  double fx = 0.0, fy = 0.0;                             // focal lengths in pixels
+  double cx = 0.0, cy = 0.0;                             // principal point in pixels
   std::array<double, 4> distortion{0.0, 0.0, 0.0, 0.0};  // k1, k2, p1, p2 (OpenCV order)
 
   // False with a reason when the intrinsics are unusable (non-positive size or focal length, NaN,

@@ -11,8 +11,8 @@ namespace fsp {
 
 class TableReader {
  public:
-  // Opens PATH; throws InputError when it does not exist or cannot be read. `what` names the kind of
-  // file in messages ("IMU csv", "TUM trajectory").
+  // Opens PATH; throws InputError when it does not exist or cannot be read. `what` names the kind
+  // of file in messages ("IMU csv", "TUM trajectory").
   explicit TableReader(const std::string& path, std::string what = "file");
 
   // Next data row split on ',' and/or whitespace; skips blank lines and lines starting with '#'.

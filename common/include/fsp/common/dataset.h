@@ -3,8 +3,9 @@
 //
 // Kinds of INPUT (CONTRACT.md):
 //  - EuRoC layout: DIR/mav0/{cam0,imu0}/... or DIR being mav0 itself. cam0/data.csv
-//    ("#timestamp [ns],filename") + cam0/data/*, imu0/data.csv, cam0/sensor.yaml (+ imu0/sensor.yaml for
-//    the IMU noise). --calib and --imu override the files of the folder when given.
+//    ("#timestamp [ns],filename") + cam0/data/*, imu0/data.csv, cam0/sensor.yaml (+
+//    imu0/sensor.yaml for the IMU noise). --calib and --imu override the files of the folder when
+//    given.
 //  - a video file + --imu CSV + --calib FILE. Frame k's time is the video clock (CAP_PROP_POS_MSEC,
 //    rounded to 1 us); when that clock agrees with k / fps to 2 us (a constant-rate video) or is
 //    unusable, round(k * 1e9 / fps) exactly, which is the renderer's own frame time at any rate.
@@ -33,11 +34,13 @@ enum class InputKind { kEuroc, kVideo, kImageFolder };
 const char* ToString(InputKind kind);  // "euroc", "video", "image-folder"
 
 struct SourceOptions {
-  std::string input;        // dataset folder, video file or image folder
-  std::string calib;        // calibration file; required for video and image folders, overrides EuRoC's
-  std::string imu;          // IMU csv (t_ns,wx,wy,wz,ax,ay,az); required for video and image folders
-  std::string frame_times;  // optional: one t_ns per video frame (csv or plain), overrides the video clock
-  bool decode_images = true;  // false: Next() yields frames with only timestamps and sources (fast scans)
+  std::string input;  // dataset folder, video file or image folder
+  std::string calib;  // calibration file; required for video and image folders, overrides EuRoC's
+  std::string imu;    // IMU csv (t_ns,wx,wy,wz,ax,ay,az); required for video and image folders
+  std::string
+      frame_times;  // optional: one t_ns per video frame (csv or plain), overrides the video clock
+  bool decode_images =
+      true;  // false: Next() yields frames with only timestamps and sources (fast scans)
   bool Check(std::string* why) const;
 };
 
@@ -49,22 +52,23 @@ class Source {
   virtual ~Source() = default;
   virtual InputKind kind() const = 0;
   virtual const Calibration& calibration() const = 0;
-  // Frame timestamps in the IMU clock (known up front for every kind; the video kind reads them from
-  // its clock at open time).
+  // Frame timestamps in the IMU clock (known up front for every kind; the video kind reads them
+  // from its clock at open time).
   virtual const std::vector<int64_t>& frame_times() const = 0;
   virtual const std::vector<ImuSample>& imu() const = 0;
   // Next measurement in time order, or nullopt at the end. Throws InputError naming the image file
   // (or "VIDEO#frame=K") when an image does not decode or its size does not match the calibration.
   virtual std::optional<Measurement> Next() = 0;
-  // Decode frame i (0-based) directly (always decodes, whatever decode_images says); throws InputError
-  // as Next() does. Sequential calls on a video are cheap; jumping back re-seeks.
+  // Decode frame i (0-based) directly (always decodes, whatever decode_images says); throws
+  // InputError as Next() does. Sequential calls on a video are cheap; jumping back re-seeks.
   virtual Frame ReadFrame(int index) const = 0;
 };
 
 // Opens INPUT, validating everything that can be checked without decoding every image: files exist,
-// csv rows are well-formed, timestamps strictly increase, values are finite, the first image decodes
-// and fits the calibration, frames and IMU overlap in time. A video is scanned once (grab without
-// colour conversion) to read its clock. Throws InputError ("FILE:LINE: what") on the first problem.
+// csv rows are well-formed, timestamps strictly increase, values are finite, the first image
+// decodes and fits the calibration, frames and IMU overlap in time. A video is scanned once (grab
+// without colour conversion) to read its clock. Throws InputError ("FILE:LINE: what") on the first
+// problem.
 std::unique_ptr<Source> OpenSource(const SourceOptions& options);
 
 // What a source holds, for `fsp info` and for apps to warn about (libraries stay silent).
@@ -75,17 +79,17 @@ struct SourceSummary {
   double frame_rate_hz = 0.0;             // from the median frame interval; 0 with < 2 frames
   int imu_samples = 0;
   int64_t imu_t_first_ns = 0, imu_t_last_ns = 0;
-  double imu_rate_hz = 0.0;               // from the median IMU interval
-  int64_t largest_imu_gap_ns = 0;         // largest interval between consecutive IMU samples
-  int64_t largest_imu_gap_at_ns = 0;      // time of the sample that ends it
-  int imu_gaps = 0;                       // intervals longer than 5x the calibration's nominal IMU period
-  int frames_outside_imu = 0;             // frames before the first or after the last IMU sample
+  double imu_rate_hz = 0.0;           // from the median IMU interval
+  int64_t largest_imu_gap_ns = 0;     // largest interval between consecutive IMU samples
+  int64_t largest_imu_gap_at_ns = 0;  // time of the sample that ends it
+  int imu_gaps = 0;            // intervals longer than 5x the calibration's nominal IMU period
+  int frames_outside_imu = 0;  // frames before the first or after the last IMU sample
 };
 SourceSummary Summarize(const Source& source);
 
-// IMU csv: "t_ns,wx,wy,wz,ax,ay,az" (EuRoC imu0/data.csv and FSP's imu.csv), '#' comment lines allowed.
-// Exactly 7 columns, finite values, strictly increasing t_ns, at least one sample; else InputError
-// "FILE:LINE: what".
+// IMU csv: "t_ns,wx,wy,wz,ax,ay,az" (EuRoC imu0/data.csv and FSP's imu.csv), '#' comment lines
+// allowed. Exactly 7 columns, finite values, strictly increasing t_ns, at least one sample; else
+// InputError "FILE:LINE: what".
 std::vector<ImuSample> ReadImuCsv(const std::string& path);
 // Writes the same format with a EuRoC header line; values in shortest exact decimal (lossless).
 void WriteImuCsv(const std::vector<ImuSample>& imu, const std::string& path);

@@ -5,8 +5,9 @@
 //  - Quaternions are Eigen's (Hamilton, stored x, y, z, w). Never mix orders; EuRoC csv files store
 //    w, x, y, z and are converted at the reader.
 //  - Rigid3::Plus perturbs on the right: T ⊞ (δp, δθ) = (p + R δp, R Exp(δθ)). This is NOT Ceres'
-//    convention: ceres::EigenQuaternionManifold::Plus(q, δ) = Exp(2δ) ⊗ q (left, half-angle tangent);
-//    the back end's factors bridge the two explicitly (backend/include/fsp/backend/manifolds.h).
+//    convention: ceres::EigenQuaternionManifold::Plus(q, δ) = Exp(2δ) ⊗ q (left, half-angle
+//    tangent); the back end's factors bridge the two explicitly
+//    (backend/include/fsp/backend/manifolds.h).
 #pragma once
 
 #include <Eigen/Core>
@@ -57,8 +58,9 @@ class Rigid3 {
   Rigid3(const Mat3& R, const Vec3& t) : rotation_(Quat(R).normalized()), translation_(t) {}
 
   static Rigid3 Identity() { return Rigid3(); }
-  // From a homogeneous 4x4 matrix; the rotation block is re-orthonormalised (calibration files carry
-  // ~1e-9 rounding). Throws std::invalid_argument when the block is far from a rotation (> 1e-3).
+  // From a homogeneous 4x4 matrix; the rotation block is re-orthonormalised (calibration files
+  // carry ~1e-9 rounding). Throws std::invalid_argument when the block is far from a rotation (>
+  // 1e-3).
   static Rigid3 FromMatrix(const Mat4& M);
 
   const Quat& rotation() const { return rotation_; }
@@ -75,7 +77,8 @@ class Rigid3 {
   // Inverse of Plus: other = this->Plus(this->Minus(other)).
   Eigen::Matrix<double, 6, 1> Minus(const Rigid3& other) const;
 
-  // Apply to a point with optional Jacobians w.r.t. the right perturbation (dp, dtheta) and the point.
+  // Apply to a point with optional Jacobians w.r.t. the right perturbation (dp, dtheta) and the
+  // point.
   Vec3 Transform(const Vec3& p, Mat36* d_out_d_T = nullptr, Mat3* d_out_d_p = nullptr) const;
 
  private:

@@ -8,10 +8,11 @@ namespace fsp::eval {
 
 struct ErrorStats {
   size_t count = 0;
-  double rmse = 0.0;    // sqrt(mean(e^2))
+  double rmse = 0.0;  // sqrt(mean(e^2))
   double mean = 0.0;
-  double median = 0.0;  // middle value; mean of the two middle values for an even count (numpy.median)
-  double std = 0.0;     // population standard deviation (numpy.std, ddof = 0)
+  double median =
+      0.0;           // middle value; mean of the two middle values for an even count (numpy.median)
+  double std = 0.0;  // population standard deviation (numpy.std, ddof = 0)
   double min = 0.0;
   double max = 0.0;
 };

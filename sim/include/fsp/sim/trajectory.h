@@ -1,15 +1,18 @@
-// An analytic body trajectory for simulation (in the spirit of gtsam's Scenario): pose T_W_B(t), world
-// velocity and acceleration, and body angular velocity at any time, all from closed-form derivatives, so
-// ideal IMU samples and ground truth agree exactly.
+// An analytic body trajectory for simulation (in the spirit of gtsam's Scenario): pose T_W_B(t),
+// world velocity and acceleration, and body angular velocity at any time, all from closed-form
+// derivatives, so ideal IMU samples and ground truth agree exactly.
 //
-// Flight model (hexacopter-like, differential flatness as in Mellinger & Kumar, ICRA 2011): the flat
-// outputs are position p_W(t) and yaw psi(t). The thrust axis (body z) is along the specific force
+// Flight model (hexacopter-like, differential flatness as in Mellinger & Kumar, ICRA 2011): the
+// flat outputs are position p_W(t) and yaw psi(t). The thrust axis (body z) is along the specific
+// force
 //     b3 = (a_W - g_W) / |a_W - g_W|,   g_W = (0, 0, -9.81),
-// and the heading fixes the rest:  x_c = (cos psi, sin psi, 0),  b2 = b3 x x_c / |b3 x x_c|,  b1 = b2 x b3,
+// and the heading fixes the rest:  x_c = (cos psi, sin psi, 0),  b2 = b3 x x_c / |b3 x x_c|,  b1 =
+// b2 x b3,
 //     R_W_B = [b1 b2 b3].
-// So roll and pitch follow the acceleration, and yaw the waypoints (body y is horizontal, perpendicular
-// to the heading x_c; body x projected on the floor is along psi up to O(tilt^2)). The angular velocity is exact:
-// d/dt of each column follows from the jerk and the yaw rate (see trajectory.cc), and
+// So roll and pitch follow the acceleration, and yaw the waypoints (body y is horizontal,
+// perpendicular to the heading x_c; body x projected on the floor is along psi up to O(tilt^2)).
+// The angular velocity is exact: d/dt of each column follows from the jerk and the yaw rate (see
+// trajectory.cc), and
 //     [w_B]x = R_W_B^T dR_W_B/dt.
 //
 // Time t is in seconds since the start of the sequence (t = 0 is the first frame and IMU sample).
@@ -26,26 +29,29 @@ namespace fsp::sim {
 
 constexpr double kGravity = 9.81;  // [m/s^2]
 // Gravity in W (z up).
-inline Vec3 GravityW() { return Vec3(0.0, 0.0, -kGravity); }
+inline Vec3 GravityW() {
+  return Vec3(0.0, 0.0, -kGravity);
+}
 
 // A waypoint of the flight: where the body is at time t_s, and its heading.
 struct Waypoint {
-  double t_s = 0.0;            // [s] since the start; strictly increasing along the list
-  Vec3 p_W = Vec3::Zero();     // body position [m]
-  double yaw_rad = 0.0;        // heading about world z [rad] (body x axis projected on the floor)
+  double t_s = 0.0;         // [s] since the start; strictly increasing along the list
+  Vec3 p_W = Vec3::Zero();  // body position [m]
+  double yaw_rad = 0.0;     // heading about world z [rad] (body x axis projected on the floor)
 };
 
 // Everything the IMU and the ground truth need at one instant.
 struct TrajectoryState {
   Rigid3 T_W_B;
-  Vec3 v_W = Vec3::Zero();     // [m/s]
-  Vec3 a_W = Vec3::Zero();     // [m/s^2], gravity not included
-  Vec3 w_B = Vec3::Zero();     // body angular velocity in B [rad/s]
+  Vec3 v_W = Vec3::Zero();  // [m/s]
+  Vec3 a_W = Vec3::Zero();  // [m/s^2], gravity not included
+  Vec3 w_B = Vec3::Zero();  // body angular velocity in B [rad/s]
 };
 
 struct TrajectoryOptions {
-  // Pose files: positions and yaw are smoothed with a Gaussian of this standard deviation [s] before
-  // resampling. Larger removes more jitter (hand-held recordings) but cuts corners of fast motion.
+  // Pose files: positions and yaw are smoothed with a Gaussian of this standard deviation [s]
+  // before resampling. Larger removes more jitter (hand-held recordings) but cuts corners of fast
+  // motion.
   double pose_smoothing_s = 0.15;
   // Pose files: knot spacing of the resampled spline [s]. Smaller follows the file more closely but
   // keeps more of the file's noise in the acceleration (and so in roll/pitch and the IMU).
@@ -57,22 +63,22 @@ struct TrajectoryOptions {
 };
 
 // A C3 trajectory (continuous position, velocity, acceleration and jerk, hence continuous angular
-// velocity) through waypoints: one degree-7 Hermite polynomial per segment in (x, y, z, yaw), matching
-// position, velocity, acceleration and jerk at both ends. Waypoint derivatives: velocity and
-// acceleration of the parabola through the waypoint and its two neighbours; jerk zero; all derivatives
-// zero at the first and last waypoint and at both ends of a still segment (equal consecutive
-// waypoints), so a repeated waypoint is an exact hover.
+// velocity) through waypoints: one degree-7 Hermite polynomial per segment in (x, y, z, yaw),
+// matching position, velocity, acceleration and jerk at both ends. Waypoint derivatives: velocity
+// and acceleration of the parabola through the waypoint and its two neighbours; jerk zero; all
+// derivatives zero at the first and last waypoint and at both ends of a still segment (equal
+// consecutive waypoints), so a repeated waypoint is an exact hover.
 class Trajectory {
  public:
-  // Throws InputError (no file prefix; callers add it) when there are fewer than 2 waypoints, times do
-  // not increase, or the flight would need less thrust than options.min_thrust.
+  // Throws InputError (no file prefix; callers add it) when there are fewer than 2 waypoints, times
+  // do not increase, or the flight would need less thrust than options.min_thrust.
   static Trajectory FromWaypoints(const std::vector<Waypoint>& waypoints,
                                   const TrajectoryOptions& options = TrajectoryOptions());
-  // Poses (e.g. a TUM file), shifted so the first is at t = 0, smoothed and resampled into waypoints
-  // (position and yaw of the body x axis) every pose_knot_s. Roll and pitch are not taken from the file:
-  // they follow the flight model. Like any waypoint trajectory it starts and ends at rest (the first and
-  // last knot interval ease in and out). Throws InputError as above, or when the poses span less than
-  // two knots.
+  // Poses (e.g. a TUM file), shifted so the first is at t = 0, smoothed and resampled into
+  // waypoints (position and yaw of the body x axis) every pose_knot_s. Roll and pitch are not taken
+  // from the file: they follow the flight model. Like any waypoint trajectory it starts and ends at
+  // rest (the first and last knot interval ease in and out). Throws InputError as above, or when
+  // the poses span less than two knots.
   static Trajectory FromPoses(const std::vector<StampedPose>& poses,
                               const TrajectoryOptions& options = TrajectoryOptions());
 
@@ -83,13 +89,15 @@ class Trajectory {
   // State at time t (clamped to [t_begin, t_end]: outside, the body hovers at the end pose).
   TrajectoryState State(double t) const;
   Rigid3 Pose(double t) const { return State(t).T_W_B; }
-  // Derivatives of the flat outputs, exposed for tests: k-th derivative (k = 0..4) of (x, y, z, yaw).
+  // Derivatives of the flat outputs, exposed for tests: k-th derivative (k = 0..4) of (x, y, z,
+  // yaw).
   Vec4 FlatDerivative(double t, int k) const;
 
  private:
   struct Segment {
     double t0 = 0.0, duration = 1.0;
-    // Coefficients of s^0..s^7 in the normalised time s = (t - t0) / duration, one column per output.
+    // Coefficients of s^0..s^7 in the normalised time s = (t - t0) / duration, one column per
+    // output.
     Eigen::Matrix<double, 8, 4> c;
   };
   std::vector<Waypoint> knots_;
