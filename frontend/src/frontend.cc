@@ -225,7 +225,14 @@ struct FrontEnd::Impl {
     double best_sim = -2.0, second_sim = -2.0;  // best over objects, and the next object's best
     for (const auto& [id, info] : objects) {
       if (info.active || !info.confirmed) continue;
-      // The back end's prediction: near it, a lower bar; far from it, geometry says no.
+      // The back end's prediction: behind the camera or far from the detection, geometry says no;
+      // near it, a lower bar.
+      const auto& behind = prediction.objects_behind;
+      if (std::find(behind.begin(), behind.end(), id) != behind.end()) continue;
+      const auto predicted =
+          std::find_if(prediction.objects.begin(), prediction.objects.end(),
+                       [id = id](const std::pair<int, Corners>& p) { return p.first == id; });
+      if (prediction.map_known && predicted == prediction.objects.end()) continue;
       double need = o.reid_min_similarity;
       bool elsewhere = false;
       for (const auto& [pid, pc] : prediction.objects) {

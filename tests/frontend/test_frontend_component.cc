@@ -83,6 +83,59 @@ TEST(FrontEndComponent, ConfirmsTracksLosesAndReidentifies) {
   EXPECT_EQ(fe.ClassOf(door), ObjectClass::kDoor);
 }
 
+// Runs the clip of ConfirmsTracksLosesAndReidentifies with the back end's prediction made by
+// `predict(k, window_id, window_truth)` from frame 10 on (before: no map); returns whether the
+// window came back under its old id.
+template <typename Predict>
+bool WindowReturnsUnderItsId(Predict predict) {
+  FrontEnd fe(Camera());
+  std::vector<Corners> truth;
+  int window = -1;
+  for (int k = 0; k < 40; ++k) {
+    Frame f = MakeFrame(k, 15, 25, &truth);
+    FramePrediction p;
+    if (k >= 10) p = predict(window, truth.size() > 1 ? truth[1] : Corners{});
+    const FrontEndResult r = fe.Process(f, p);
+    if (k < 8 || truth.size() < 2) continue;
+    const int w = IdAt(r.observations, truth[1]);
+    if (k < 15 && w >= 0) window = w;
+    if (k >= 30) return w == window;
+  }
+  return false;
+}
+
+// Re-identification asks the map: a dormant object it predicts where the detection is comes back;
+// one it places behind the camera, or does not hold once it is initialised (its whereabouts
+// unknown), does not, however alike the two look.
+TEST(FrontEndComponent, ReidentificationFollowsTheMapsPrediction) {
+  EXPECT_TRUE(WindowReturnsUnderItsId([](int, const Corners&) { return FramePrediction{}; }))
+      << "without a map, appearance decides";
+  EXPECT_TRUE(WindowReturnsUnderItsId([](int id, const Corners& c) {
+    FramePrediction p;
+    p.map_known = true;
+    p.objects.emplace_back(id, c);
+    return p;
+  })) << "predicted in view";
+  EXPECT_FALSE(WindowReturnsUnderItsId([](int id, const Corners& c) {
+    FramePrediction p;
+    p.map_known = true;
+    p.objects.emplace_back(id, c);
+    for (Vec2& x : p.objects.back().second) x += Vec2(300.0, 0.0);
+    return p;
+  })) << "predicted elsewhere";
+  EXPECT_FALSE(WindowReturnsUnderItsId([](int id, const Corners&) {
+    FramePrediction p;
+    p.map_known = true;
+    p.objects_behind.push_back(id);
+    return p;
+  })) << "behind the camera";
+  EXPECT_FALSE(WindowReturnsUnderItsId([](int, const Corners&) {
+    FramePrediction p;
+    p.map_known = true;
+    return p;
+  })) << "not in the map";
+}
+
 TEST(FrontEndComponent, RejectsWrongImagesWithAClearError) {
   FrontEnd fe(Camera());
   Frame f;

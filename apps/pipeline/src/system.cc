@@ -91,6 +91,7 @@ struct System::Impl {
         p.gravity_C = R_B_C.transpose() * attitude.R_W_B().transpose() * Vec3(0.0, 0.0, -1.0);
       return p;
     }
+    p.map_known = true;
     const double dt = NsToSeconds(t_ns - latest->t_ns);
     const Rigid3 T_W_B(latest->T_W_B.R() * R_Bprev_Bcur,
                        latest->T_W_B.translation() + dt * latest->v_W);
@@ -105,7 +106,11 @@ struct System::Impl {
         ok = p_C.z() > 0.1;
         c[j] = Vec2(cam.fx * p_C.x() / p_C.z() + cam.cx, cam.fy * p_C.y() / p_C.z() + cam.cy);
       }
-      if (ok) p.objects.emplace_back(o.id, c);
+      if (ok) {
+        p.objects.emplace_back(o.id, c);
+      } else {
+        p.objects_behind.push_back(o.id);
+      }
     }
     return p;
   }

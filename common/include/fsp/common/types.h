@@ -75,8 +75,14 @@ struct FramePrediction {
   // Gravity direction in the current camera frame (any length); absent before initialisation.
   // Orders the corners of new rectangles (s1 bottom-left).
   std::optional<Vec3> gravity_C;
-  // Predicted corners (undistorted px, s1..s4) of map objects expected in view, by object id.
+  // Whether `objects` and `objects_behind` come from an initialised estimate (else both are empty
+  // because nothing is known yet).
+  bool map_known = false;
+  // Predicted corners (undistorted px, s1..s4) of map objects in front of the camera, by object id.
   std::vector<std::pair<int, Corners>> objects;
+  // Map objects with a corner behind the camera (more than ~80 deg off the optical axis: no drift
+  // of the estimate brings them into view): whatever a detection looks like, it is not one of them.
+  std::vector<int> objects_behind;
 };
 
 }  // namespace fsp
