@@ -227,6 +227,9 @@ struct Estimator::Impl {
         std::snprintf(what, sizeof(what),
                       "frame gap: no frame for %.2f s; bridged by the IMU preintegration", gap);
         Warn(t_ns, what);
+        // Objects in view until the gap: the stretch without frames is a frame gap, not a blind
+        // one.
+        if (last_seen_t == last_frame_t) last_seen_t = t_ns;
       }
     }
     if (!end) last_frame_t = t_ns;
