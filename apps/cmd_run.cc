@@ -59,6 +59,15 @@ void Run(const RunArgs& args) {
     for (int id : r.objects_non_finite_ids) std::printf(" %d", id);
     std::printf(")\n");
   }
+  const backend::EstimatorSummary& f = r.summary;
+  if (f.imu_gaps + f.frame_gaps + f.blind_stretches + f.divergences > 0) {
+    std::printf(
+        "  faults: %d IMU gaps (longest %.2f s), %d frame gaps (longest %.2f s), %d stretches "
+        "without objects (longest %.2f s), %d divergences, %d resets (run.json \"faults\")\n",
+        f.imu_gaps, f.imu_gap_max_s, f.frame_gaps, f.frame_gap_max_s, f.blind_stretches,
+        f.blind_max_s, f.divergences, f.resets);
+  }
+  for (const std::string& w : f.warnings) std::fprintf(stderr, "fsp: warning: %s\n", w.c_str());
   if (!r.frontend_stages.empty()) {
     std::printf("  front end per frame: median %.2f ms, p90 %.2f ms (", r.frontend_ms.median,
                 r.frontend_ms.p90);

@@ -110,6 +110,16 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                     {"marginalization_failures", s.marginalization_failures},
                     {"batch_solve_ms", s.batch_solve_ms},
                     {"final_cost", s.final_cost}};
+  j["faults"] = {{"imu_gaps", s.imu_gaps},
+                 {"imu_gap_max_s", s.imu_gap_max_s},
+                 {"imu_gap_links", s.imu_gap_links},
+                 {"frame_gaps", s.frame_gaps},
+                 {"frame_gap_max_s", s.frame_gap_max_s},
+                 {"blind_stretches", s.blind_stretches},
+                 {"blind_max_s", s.blind_max_s},
+                 {"divergences", s.divergences},
+                 {"resets", s.resets},
+                 {"warnings", s.warnings}};
   return j;
 }
 

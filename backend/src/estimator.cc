@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <deque>
 #include <optional>
 #include <sstream>
@@ -18,8 +19,18 @@
 #include "fsp/backend/reanchor.h"
 #include "fsp/backend/static_init.h"
 #include "fsp/common/error.h"
+#include "fsp/common/time.h"
 
 namespace fsp::backend {
+
+bool FaultOptions::Check(std::string* why) const {
+  const bool ok = max_imu_gap_s > 0.0 && gap_max_acc > 0.0 && gap_max_rate > 0.0 &&
+                  frame_gap_s > 0.0 && blind_s > 0.0 && max_speed > 0.0 && max_gyro_bias > 0.0 &&
+                  max_acc_bias > 0.0 && max_jump_m > 0.0 && restart_velocity_sigma > 0.0 &&
+                  restart_roll_pitch_sigma > 0.0;
+  if (why) *why = ok ? "" : "every fault threshold and sigma must be > 0";
+  return ok;
+}
 
 bool EstimatorOptions::Check(std::string* why) const {
   std::ostringstream os;
@@ -51,6 +62,8 @@ bool EstimatorOptions::Check(std::string* why) const {
     os << "need 0 < min_depth_m < max_depth_m";
   else if (!(reinit_gate_px >= 0.0))
     os << "reinit_gate_px must be >= 0";
+  else if (!faults.Check(&sub))
+    os << "faults: " << sub;
   if (why) *why = os.str();
   return os.str().empty();
 }
@@ -62,6 +75,15 @@ double MsSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
+// The priors that fix a session's gauge at its first keyframe: pose (position and yaw pinned, roll
+// and pitch as well as known) and speed/biases.
+struct Gauge {
+  Rigid3 T_W_B0;
+  double sigma_p = 1e-3, sigma_roll_pitch = 0.02, sigma_yaw = 1e-3;
+  Eigen::Matrix<double, 9, 1> sb0 = Eigen::Matrix<double, 9, 1>::Zero();
+  Eigen::Matrix<double, 9, 1> sigma_sb = Eigen::Matrix<double, 9, 1>::Ones();
+};
+
 struct Keyframe {
   int index = 0;  // position in Impl::keyframes
   int frame = 0;  // position in Impl::output (the frame's reported state)
@@ -69,8 +91,15 @@ struct Keyframe {
   // arrives (it is always the newest state).
   bool keyframe = true;
   KeyframeState state;
-  // Preintegrated IMU from the previous keyframe (null for the first keyframe).
+  // Preintegrated IMU from the previous keyframe (null for the first keyframe of a session and
+  // across an IMU gap).
   std::shared_ptr<ImuPreintegration> preint;
+  // > 0: the IMU has a hole between the previous keyframe and this one, which are linked by the
+  // motion prior over this interval instead [s].
+  double imu_gap_s = 0.0;
+  // Set on the first keyframe of a session (the start, and every restart): no link to the
+  // previous keyframe, its gauge priors instead.
+  std::optional<Gauge> gauge;
   std::vector<ObjectObservation> observations;
 };
 
@@ -148,6 +177,10 @@ struct Estimator::Impl {
   Eigen::Matrix<double, 9, 1> sb0 = Eigen::Matrix<double, 9, 1>::Zero();
   std::shared_ptr<const LinearPrior> prior;  // from the marginalised keyframes
   bool finished = false;
+  // Fault bookkeeping: the start of the IMU hole last counted, the previous frame's time, the time
+  // of the last frame with an observation (or of the first frame).
+  int64_t counted_imu_hole_from = -1;
+  std::optional<int64_t> last_frame_t, last_seen_t;
 
   PoseManifold pose_manifold;
   ceres::EigenQuaternionManifold quat_manifold;
@@ -162,6 +195,63 @@ struct Estimator::Impl {
                                [](int64_t t, const ImuSample& s) { return t < s.t_ns; });
     if (hi != imu.end()) ++hi;
     return std::vector<ImuSample>(lo, hi);
+  }
+
+  // The longest stretch without an IMU sample that the interval [t0, t1] needs: from the last
+  // sample at or before t0 (t0 if none) through the samples inside to the first sample at or after
+  // t1 (t1 when none has arrived yet). [from, to] in ns.
+  std::pair<int64_t, int64_t> LongestImuHole(int64_t t0, int64_t t1) const {
+    auto it = std::upper_bound(imu.begin(), imu.end(), t0,
+                               [](int64_t t, const ImuSample& s) { return t < s.t_ns; });
+    int64_t prev = it == imu.begin() ? t0 : (it - 1)->t_ns;
+    std::pair<int64_t, int64_t> best{prev, prev};
+    while (prev < t1) {
+      const int64_t next = it == imu.end() ? t1 : it->t_ns;
+      if (next - prev > best.second - best.first) best = {prev, next};
+      prev = next;
+      if (it != imu.end()) ++it;
+    }
+    return best;
+  }
+
+  // Frame gaps and stretches without any object in view (counted and warned; `end`: the sequence
+  // ended at t_ns, only the trailing stretch is examined).
+  void NoteFrame(int64_t t_ns, bool sees_objects, bool end = false) {
+    const FaultOptions& f = options.faults;
+    char what[160];
+    if (last_frame_t && !end) {
+      const double gap = NsToSeconds(t_ns - *last_frame_t);
+      if (gap > f.frame_gap_s) {
+        ++summary.frame_gaps;
+        summary.frame_gap_max_s = std::max(summary.frame_gap_max_s, gap);
+        std::snprintf(what, sizeof(what),
+                      "frame gap: no frame for %.2f s; bridged by the IMU preintegration", gap);
+        Warn(t_ns, what);
+        // Objects in view until the gap: the stretch without frames is a frame gap, not a blind
+        // one.
+        if (last_seen_t == last_frame_t) last_seen_t = t_ns;
+      }
+    }
+    if (!end) last_frame_t = t_ns;
+    if (!last_seen_t) last_seen_t = t_ns;
+    if (!sees_objects) return;
+    const double blind = NsToSeconds(t_ns - *last_seen_t);
+    if (blind >= f.blind_s) {
+      ++summary.blind_stretches;
+      summary.blind_max_s = std::max(summary.blind_max_s, blind);
+      std::snprintf(what, sizeof(what),
+                    "no object in view for %.2f s (since t=%.2f s): IMU dead reckoning%s", blind,
+                    NsToSeconds(*last_seen_t), end ? " to the end" : "");
+      Warn(t_ns, what);
+    }
+    last_seen_t = t_ns;
+  }
+
+  void Warn(int64_t t_ns, const std::string& what) {
+    if (static_cast<int>(summary.warnings.size()) >= EstimatorSummary::kMaxWarnings) return;
+    char t[32];
+    std::snprintf(t, sizeof(t), "t=%.2f s: ", NsToSeconds(t_ns));
+    summary.warnings.push_back(t + what);
   }
 
   // --- Initialisation ----------------------------------------------------------------------------
@@ -188,10 +278,15 @@ struct Estimator::Impl {
     sb0.segment<3>(3) = s.state.gyro_bias;
     auto frames = std::move(pending);
     pending.clear();
+    Gauge gauge;
+    gauge.T_W_B0 = T_W_B0;
+    gauge.sb0 = sb0;
+    gauge.sigma_sb << Vec3::Constant(0.01), Vec3::Constant(options.prior_gyro_bias_sigma),
+        Vec3::Constant(options.prior_acc_bias_sigma);
     bool first_frame = true;
     for (auto& [t_ns, obs] : frames) {
       if (first_frame) {
-        AddKeyframe(t_ns, std::move(obs), &first);
+        AddKeyframe(t_ns, std::move(obs), &first, gauge);
         first_frame = false;
       } else {
         AddKeyframe(t_ns, std::move(obs), nullptr);
@@ -201,17 +296,46 @@ struct Estimator::Impl {
   }
 
   // --- Keyframes ---------------------------------------------------------------------------------
-  void AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs, const KeyframeState* initial) {
+  void AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs, const KeyframeState* initial,
+                   const std::optional<Gauge>& gauge = std::nullopt) {
     const auto t_start = Clock::now();
     if (!keyframes.empty() && !keyframes.back()->keyframe) DropNewest();
     auto kf = std::make_unique<Keyframe>();
     kf->index = static_cast<int>(keyframes.size());
     kf->frame = static_cast<int>(output.size());
     kf->keyframe = initial != nullptr || IsKeyframe(t_ns, obs);
+    kf->gauge = gauge;
+    const Keyframe* prev_kf = initial ? nullptr : keyframes.back().get();
+    const std::pair<int64_t, int64_t> hole =
+        prev_kf ? LongestImuHole(prev_kf->state.t_ns, t_ns) : std::pair<int64_t, int64_t>{0, 0};
+    const double hole_s = NsToSeconds(hole.second - hole.first);
     if (initial) {
       kf->state = *initial;
+    } else if (hole_s > options.faults.max_imu_gap_s) {
+      // The preintegration across a hole in the IMU stream is unusable: the constant-velocity
+      // motion prior links the two keyframes instead, and predicts the new state.
+      const Keyframe& prev = *prev_kf;
+      if (hole.first != counted_imu_hole_from) {
+        counted_imu_hole_from = hole.first;
+        ++summary.imu_gaps;
+        char what[160];
+        std::snprintf(
+            what, sizeof(what),
+            "IMU gap: no IMU sample since t=%.2f s; bridged by a constant-velocity motion "
+            "prior until the IMU returns",
+            NsToSeconds(hole.first));
+        Warn(t_ns, what);
+      }
+      summary.imu_gap_max_s = std::max(summary.imu_gap_max_s, hole_s);
+      ++summary.imu_gap_links;
+      kf->imu_gap_s = NsToSeconds(t_ns - prev.state.t_ns);
+      const Rigid3 T_W_Bi = prev.state.T_W_B();
+      std::copy(prev.state.speed_bias, prev.state.speed_bias + kSpeedBiasSize,
+                kf->state.speed_bias);
+      kf->state.SetT_W_B(
+          Rigid3(T_W_Bi.rotation(), T_W_Bi.translation() + kf->imu_gap_s * prev.state.v_W()));
     } else {
-      const Keyframe& prev = *keyframes.back();
+      const Keyframe& prev = *prev_kf;
       kf->preint = std::make_shared<ImuPreintegration>(
           options.imu, ImuBetween(prev.state.t_ns, t_ns), prev.state.t_ns, t_ns,
           prev.state.gyro_bias(), prev.state.acc_bias());
@@ -468,15 +592,148 @@ struct Estimator::Impl {
   }
 
   void AddImuFactor(ceres::Problem* problem, Keyframe* prev, Keyframe* kf) {
+    if (kf->imu_gap_s > 0.0) {
+      problem->AddResidualBlock(MakeGapPrior(kf->imu_gap_s), nullptr, prev->state.pose,
+                                prev->state.speed_bias, kf->state.pose, kf->state.speed_bias);
+      return;
+    }
     kf->preint->ReintegrateIfNeeded(prev->state.gyro_bias(), prev->state.acc_bias());
     problem->AddResidualBlock(new ImuFactor(kf->preint), nullptr, prev->state.pose,
                               prev->state.speed_bias, kf->state.pose, kf->state.speed_bias);
   }
 
   void AddGaugePriors(ceres::Problem* problem, Keyframe* first) {
-    // Position and yaw pinned (gauge); roll/pitch as well known as the static start gives them.
-    problem->AddResidualBlock(new PosePrior(T_W_B0, 1e-3, 0.02, 1e-3), nullptr, first->state.pose);
-    problem->AddResidualBlock(MakeBiasPrior(), nullptr, first->state.speed_bias);
+    // Position and yaw pinned (gauge); roll/pitch as well known as the start gives them.
+    problem->AddResidualBlock(MakeGaugePosePrior(*first->gauge), nullptr, first->state.pose);
+    problem->AddResidualBlock(MakeGaugeBiasPrior(*first->gauge), nullptr, first->state.speed_bias);
+  }
+  static ceres::CostFunction* MakeGaugePosePrior(const Gauge& g) {
+    return new PosePrior(g.T_W_B0, g.sigma_p, g.sigma_roll_pitch, g.sigma_yaw);
+  }
+  static ceres::CostFunction* MakeGaugeBiasPrior(const Gauge& g) {
+    return new SpeedBiasPrior(g.sb0, g.sigma_sb);
+  }
+  ceres::CostFunction* MakeGapPrior(double dt_s) const {
+    ImuGapPriorOptions o;
+    o.max_acc = options.faults.gap_max_acc;
+    o.max_rate = options.faults.gap_max_rate;
+    o.gyro_walk = options.imu.noise.gyroscope_random_walk;
+    o.acc_walk = options.imu.noise.accelerometer_random_walk;
+    return MakeImuGapPrior(dt_s, o);
+  }
+
+  // --- Faults ------------------------------------------------------------------------------------
+  // The values a solve may change, to restore when its result is rejected.
+  struct Snapshot {
+    size_t begin = 0;
+    std::vector<KeyframeState> states;                         // keyframes [begin, end)
+    std::vector<std::pair<FspLandmark, FhpLandmark>> objects;  // in the order of `objects`
+  };
+  Snapshot Save(size_t begin) const {
+    Snapshot s;
+    s.begin = begin;
+    for (size_t i = begin; i < keyframes.size(); ++i) s.states.push_back(keyframes[i]->state);
+    for (const auto& [id, obj] : objects) s.objects.emplace_back(obj->fsp, obj->fhp);
+    return s;
+  }
+  void Restore(const Snapshot& s) {
+    for (size_t k = 0; k < s.states.size(); ++k) {
+      KeyframeState& st = keyframes[s.begin + k]->state;
+      std::copy(s.states[k].pose, s.states[k].pose + kPoseSize, st.pose);
+      std::copy(s.states[k].speed_bias, s.states[k].speed_bias + kSpeedBiasSize, st.speed_bias);
+    }
+    size_t k = 0;
+    for (auto& [id, obj] : objects) {
+      obj->fsp = s.objects[k].first;
+      obj->fhp = s.objects[k].second;
+      ++k;
+    }
+  }
+
+  // Why a solve's result is implausible (empty when it is not): the solver failed, a state is not
+  // finite, a speed or bias beyond FaultOptions' bounds, a keyframe moved further than max_jump_m.
+  std::string Diverged(const ceres::Solver::Summary& s, const Snapshot& before) const {
+    const FaultOptions& f = options.faults;
+    if (s.termination_type == ceres::FAILURE || !std::isfinite(s.final_cost))
+      return "the solver failed";
+    char buf[128];
+    for (size_t k = 0; k < before.states.size(); ++k) {
+      const KeyframeState& st = keyframes[before.begin + k]->state;
+      const Eigen::Map<const Eigen::Matrix<double, kPoseSize, 1>> pose(st.pose);
+      const Eigen::Map<const Eigen::Matrix<double, kSpeedBiasSize, 1>> sb(st.speed_bias);
+      if (!pose.allFinite() || !sb.allFinite()) return "a state is not finite";
+      const double jump =
+          (st.T_W_B().translation() - before.states[k].T_W_B().translation()).norm();
+      const double speed = st.v_W().norm(), bg = st.gyro_bias().norm(), ba = st.acc_bias().norm();
+      if (speed > f.max_speed) {
+        std::snprintf(buf, sizeof(buf), "speed %.3g m/s", speed);
+      } else if (bg > f.max_gyro_bias) {
+        std::snprintf(buf, sizeof(buf), "gyroscope bias %.3g rad/s", bg);
+      } else if (ba > f.max_acc_bias) {
+        std::snprintf(buf, sizeof(buf), "accelerometer bias %.3g m/s^2", ba);
+      } else if (jump > f.max_jump_m) {
+        std::snprintf(buf, sizeof(buf), "a keyframe moved %.3g m in one solve", jump);
+      } else {
+        continue;
+      }
+      return buf;
+    }
+    return "";
+  }
+
+  // Starts a new session at the newest frame after a rejected solve (its state restored: the
+  // prediction from the last accepted one): the frame becomes a keyframe with fresh gauge priors at
+  // its pose (the trajectory stays continuous), the biases go back to the start's, the velocity is
+  // kept when plausible; the window and its marginalisation prior are dropped, and the objects are
+  // retired (the map keeps their best instances) and start afresh from this frame's views. In
+  // batch mode the session break only cuts the IMU chain (every keyframe stays a variable and the
+  // objects are kept).
+  void Restart(const std::string& why) {
+    Keyframe* kf = keyframes.back().get();
+    if (!kf->keyframe) {
+      kf->keyframe = true;
+      ++summary.keyframes;
+    }
+    const FaultOptions& f = options.faults;
+    Vec3 v = kf->state.v_W();
+    if (!v.allFinite() || v.norm() > f.max_speed) v.setZero();
+    Rigid3 T = kf->state.T_W_B();
+    if (!T.Matrix().allFinite())
+      T = keyframes.size() >= 2 ? keyframes[keyframes.size() - 2]->state.T_W_B() : T_W_B0;
+    kf->state.SetT_W_B(T);
+    VelocityOf(kf->state.speed_bias) = v;
+    GyroBiasOf(kf->state.speed_bias) = sb0.segment<3>(3);
+    AccBiasOf(kf->state.speed_bias) = sb0.segment<3>(6);
+    Gauge g;
+    g.T_W_B0 = T;
+    g.sigma_roll_pitch = f.restart_roll_pitch_sigma;
+    g.sb0 = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(kf->state.speed_bias);
+    g.sigma_sb << Vec3::Constant(f.restart_velocity_sigma),
+        Vec3::Constant(options.prior_gyro_bias_sigma), Vec3::Constant(options.prior_acc_bias_sigma);
+    kf->gauge = g;
+    kf->preint.reset();
+    kf->imu_gap_s = 0.0;
+    output[kf->frame] = kf->state.ToStateSample();
+    ++summary.resets;
+    Warn(kf->state.t_ns,
+         "divergence (" + why +
+             "): solve rejected, estimator restarted (new session from this frame)");
+    if (options.mode == EstimatorMode::kBatch) return;
+    window_begin = static_cast<size_t>(kf->index);
+    prior.reset();
+    for (auto& [id, obj] : objects) {
+      std::unique_ptr<Object>& best = retired[id];
+      if (!best || best->observations < obj->observations) best = std::move(obj);
+    }
+    objects.clear();
+    InitializeNewObjects(kf);
+    for (const ObjectObservation& o : kf->observations) {
+      auto it = objects.find(o.object_id);
+      if (it != objects.end()) {
+        ++it->second->observations;
+        it->second->last_seen = kf->index;
+      }
+    }
   }
 
   void AddObjectPriors(ceres::Problem* problem) {
@@ -518,8 +775,9 @@ struct Estimator::Impl {
     const size_t n = keyframes.size();
     for (size_t i = window_begin; i < n; ++i) AddStateBlocks(&problem, keyframes[i].get());
     for (size_t i = window_begin + 1; i < n; ++i)
-      AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
-    if (window_begin == 0) AddGaugePriors(&problem, keyframes[0].get());
+      if (!keyframes[i]->gauge) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
+    for (size_t i = window_begin; i < n; ++i)
+      if (keyframes[i]->gauge) AddGaugePriors(&problem, keyframes[i].get());
     if (prior) {
       problem.AddResidualBlock(new MarginalizationPriorFactor(prior), nullptr, prior->blocks);
       for (size_t b = 0; b < prior->blocks.size(); ++b)
@@ -528,8 +786,21 @@ struct Estimator::Impl {
     }
     AddVisualFactors(&problem, window_begin, n, /*mature=*/true);
     AddObjectPriors(&problem);
+    const Snapshot before = Save(window_begin);
     ceres::Solver::Summary s;
     ceres::Solve(SolverOptions(max_iterations), &problem, &s);
+    const std::string diverged = Diverged(s, before);
+    if (!diverged.empty()) {
+      Restore(before);
+      ++summary.divergences;
+      if (finish) {
+        Warn(keyframes.back()->state.t_ns,
+             "divergence in the final solve (" + diverged + "): its result was rejected");
+      } else {
+        Restart(diverged);
+      }
+      return;
+    }
     summary.final_cost = s.final_cost;
     for (size_t i = window_begin; i < n; ++i)
       output[keyframes[i]->frame] = keyframes[i]->state.ToStateSample();
@@ -606,12 +877,17 @@ struct Estimator::Impl {
     };
     manifolds[old->state.pose] = &pose_manifold;
     manifolds[next->state.pose] = &pose_manifold;
-    next->preint->ReintegrateIfNeeded(old->state.gyro_bias(), old->state.acc_bias());
-    add(new ImuFactor(next->preint), nullptr,
-        {old->state.pose, old->state.speed_bias, next->state.pose, next->state.speed_bias});
-    if (window_begin == 0) {
-      add(new PosePrior(T_W_B0, 1e-3, 0.02, 1e-3), nullptr, {old->state.pose});
-      add(MakeBiasPrior(), nullptr, {old->state.speed_bias});
+    if (next->imu_gap_s > 0.0) {
+      add(MakeGapPrior(next->imu_gap_s), nullptr,
+          {old->state.pose, old->state.speed_bias, next->state.pose, next->state.speed_bias});
+    } else if (!next->gauge) {
+      next->preint->ReintegrateIfNeeded(old->state.gyro_bias(), old->state.acc_bias());
+      add(new ImuFactor(next->preint), nullptr,
+          {old->state.pose, old->state.speed_bias, next->state.pose, next->state.speed_bias});
+    }
+    if (old->gauge) {
+      add(MakeGaugePosePrior(*old->gauge), nullptr, {old->state.pose});
+      add(MakeGaugeBiasPrior(*old->gauge), nullptr, {old->state.speed_bias});
     }
     if (prior) {
       for (size_t b = 0; b < prior->blocks.size(); ++b)
@@ -639,13 +915,6 @@ struct Estimator::Impl {
     ++summary.marginalizations;
   }
 
-  ceres::CostFunction* MakeBiasPrior() const {
-    Eigen::Matrix<double, 9, 1> sigma;
-    sigma << Vec3::Constant(0.01), Vec3::Constant(options.prior_gyro_bias_sigma),
-        Vec3::Constant(options.prior_acc_bias_sigma);
-    return new SpeedBiasPrior(sb0, sigma);
-  }
-
   // --- Batch
   // ---------------------------------------------------------------------------------------
   void SolveBatch() {
@@ -653,8 +922,9 @@ struct Estimator::Impl {
     ceres::Problem problem(ProblemOptions());
     for (auto& kf : keyframes) AddStateBlocks(&problem, kf.get());
     for (size_t i = 1; i < keyframes.size(); ++i)
-      AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
-    AddGaugePriors(&problem, keyframes[0].get());
+      if (!keyframes[i]->gauge) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
+    for (auto& kf : keyframes)
+      if (kf->gauge) AddGaugePriors(&problem, kf.get());
     for (auto& kf : keyframes) {
       for (const ObjectObservation& o : kf->observations) {
         auto it = objects.find(o.object_id);
@@ -665,10 +935,19 @@ struct Estimator::Impl {
     }
     AddObjectPriors(&problem);
     ceres::Solver::Options so = SolverOptions(options.batch_max_iterations);
+    const Snapshot before = Save(0);
     ceres::Solver::Summary s;
     ceres::Solve(so, &problem, &s);
-    summary.final_cost = s.final_cost;
     summary.batch_solve_ms = MsSince(t0);
+    const std::string diverged = Diverged(s, before);
+    if (!diverged.empty()) {
+      Restore(before);
+      ++summary.divergences;
+      Warn(keyframes.back()->state.t_ns,
+           "divergence in the final batch solve (" + diverged + "): its result was rejected");
+      return;
+    }
+    summary.final_cost = s.final_cost;
     for (auto& kf : keyframes) output[kf->frame] = kf->state.ToStateSample();
     ComputeSigmas(&problem);
   }
@@ -773,9 +1052,7 @@ void Estimator::AddImu(const ImuSample& sample) {
 bool Estimator::AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& observations) {
   Impl& d = *impl_;
   ++d.summary.frames;
-  for (const auto& o : observations) {
-    (void)o;
-  }
+  d.NoteFrame(t_ns, !observations.empty());
   if (!d.summary.initialized) {
     if (!d.summary.init_failure.empty()) return false;
     d.pending.emplace_back(t_ns, observations);
@@ -794,6 +1071,7 @@ void Estimator::Finish() {
                              std::to_string(d.options.static_init.window_s) +
                              " s of IMU after the first frame)";
   }
+  if (d.last_frame_t) d.NoteFrame(*d.last_frame_t, true, /*end=*/true);
   if (!d.summary.initialized) return;
   if (d.options.mode == EstimatorMode::kBatch) {
     d.SolveBatch();

@@ -168,8 +168,23 @@ void ImuPreintegration::Integrate() {
   // Information Σ⁻¹ = L Lᵀ (Cholesky); whitening with Lᵀ: |Lᵀ r|² = rᵀ Σ⁻¹ r.
   Mat15 info = cov15_.ldlt().solve(Mat15::Identity());
   info = 0.5 * (info + info.transpose());
-  const Eigen::LLT<Mat15> llt(info);
-  FSP_CHECK(llt.info() == Eigen::Success);
+  Eigen::LLT<Mat15> llt(info);
+  // A single integration step (one IMU interval between the keyframes: IMU at the camera rate, or
+  // samples missing at the end) gives a 9 x 9 covariance of rank 6 (velocity and position driven by
+  // the same accelerometer noise): the information does not exist. Then a small diagonal floor
+  // (relative to the largest variance, raised until the factorisation succeeds) stands in for the
+  // unmodelled intra-step noise. Covariances that factor are left exactly as they are.
+  for (double floor = 1e-9; llt.info() != Eigen::Success && floor <= 1.0; floor *= 100.0) {
+    Mat15 cov_floor = cov15_;
+    cov_floor.diagonal().array() += floor * cov15_.diagonal().maxCoeff() + 1e-30;
+    info = cov_floor.ldlt().solve(Mat15::Identity());
+    info = 0.5 * (info + info.transpose());
+    llt.compute(info);
+    if (llt.info() == Eigen::Success) cov15_ = cov_floor;
+  }
+  if (llt.info() != Eigen::Success)
+    throw InputError("IMU preintegration: the noise covariance is singular between " +
+                     std::to_string(t_i_ns_) + " and " + std::to_string(t_j_ns_) + " ns");
   sqrt_info_ = llt.matrixL().transpose();
 }
 

@@ -2,7 +2,11 @@
 
 #include <cmath>
 
+#include <ceres/autodiff_cost_function.h>
+#include <ceres/rotation.h>
+
 #include "fsp/backend/fsp_landmark.h"
+#include "fsp/common/error.h"
 
 namespace fsp::backend {
 
@@ -61,6 +65,48 @@ bool LogWidthPrior::Evaluate(double const* const* parameters, double* residuals,
     jacobians[0][kFspLogOmega] = -inv_sigma_;
   }
   return true;
+}
+
+namespace {
+
+struct ImuGapResidual {
+  double dt, inv_rot, inv_v, inv_p, inv_bg, inv_ba;
+
+  template <typename T>
+  bool operator()(const T* pose_i, const T* sb_i, const T* pose_j, const T* sb_j, T* r) const {
+    // Quaternions are stored (x, y, z, w); ceres/rotation.h wants (w, x, y, z).
+    const T qi_conj[4] = {pose_i[6], -pose_i[3], -pose_i[4], -pose_i[5]};
+    const T qj[4] = {pose_j[6], pose_j[3], pose_j[4], pose_j[5]};
+    T dq[4];
+    ceres::QuaternionProduct(qi_conj, qj, dq);
+    if (dq[0] < T(0.0))
+      for (T& c : dq) c = -c;  // the shorter of the two rotations
+    T phi[3];
+    ceres::QuaternionToAngleAxis(dq, phi);
+    const T half_dt = T(0.5 * dt);
+    for (int k = 0; k < 3; ++k) {
+      r[k] = phi[k] * T(inv_rot);
+      r[3 + k] = (sb_j[k] - sb_i[k]) * T(inv_v);
+      r[6 + k] = (pose_j[k] - pose_i[k] - (sb_i[k] + sb_j[k]) * half_dt) * T(inv_p);
+      r[9 + k] = (sb_j[3 + k] - sb_i[3 + k]) * T(inv_bg);
+      r[12 + k] = (sb_j[6 + k] - sb_i[6 + k]) * T(inv_ba);
+    }
+    return true;
+  }
+};
+
+}  // namespace
+
+ceres::CostFunction* MakeImuGapPrior(double dt_s, const ImuGapPriorOptions& o) {
+  FSP_CHECK(dt_s > 0.0 && o.max_acc > 0.0 && o.max_rate > 0.0 && o.gyro_walk > 0.0 &&
+            o.acc_walk > 0.0);
+  const ImuGapResidual r{dt_s,
+                         1.0 / (o.max_rate * dt_s),
+                         1.0 / (o.max_acc * dt_s),
+                         1.0 / (o.max_acc * dt_s * dt_s),
+                         1.0 / (o.gyro_walk * std::sqrt(dt_s)),
+                         1.0 / (o.acc_walk * std::sqrt(dt_s))};
+  return new ceres::AutoDiffCostFunction<ImuGapResidual, 15, 7, 9, 7, 9>(new ImuGapResidual(r));
 }
 
 }  // namespace fsp::backend

@@ -108,6 +108,22 @@ TEST(Preintegration, PredictReproducesTrajectoryState) {
   EXPECT_LT(LogSO3(Tj.R().transpose() * traj.Rotation(2.0)).norm(), 2e-6);
 }
 
+// One integration step between the keyframes (both inside the same IMU interval, or the samples
+// ending before the interval, as in an IMU gap) gives a rank-6 noise covariance: the
+// preintegration floors it instead of aborting (it did: an LLT check), and its information is
+// finite and positive definite.
+TEST(Preintegration, SingleStepIntervalHasAFiniteInformation) {
+  PreintegrationOptions opt;
+  ImuSample s;
+  s.t_ns = Ns(1.0);
+  s.acc = Vec3(0.1, 0.0, 9.81);
+  s.gyro = Vec3(0.01, 0.0, 0.0);
+  const ImuPreintegration pre(opt, {s}, Ns(1.0), Ns(1.05), Vec3::Zero(), Vec3::Zero());
+  EXPECT_TRUE(pre.sqrt_information().allFinite());
+  const Mat15 info = pre.sqrt_information().transpose() * pre.sqrt_information();
+  EXPECT_GT(info.ldlt().vectorD().minCoeff(), 0.0);
+}
+
 TEST(Preintegration, RealEurocFlightAgainstGroundTruth) {
   FSP_REQUIRE_TEST_DATA(dir, "euroc_v102_imu_gt_40s");
   const auto imu = test::ReadEurocImu(dir + "/mav0/imu0/data.csv");

@@ -128,6 +128,16 @@ TEST_F(BadInput, TimestampsGoingBackwards) {
   ExpectInfoError({want});
 }
 
+TEST_F(BadInput, ImuTimestampsGoingBackwards) {
+  // IMU sample on line 6 (sample 4) carries the time of sample 2.
+  const int64_t t2 = t_[0] - 20'000'000 + 2 * 5'000'000, t3 = t2 + 5'000'000;
+  ReplaceLine("imu0/data.csv", 6, std::to_string(t2) + ",0,0,0,0,0,9.81");
+  const std::string want = Path("imu0/data.csv") + ":6: timestamp " + std::to_string(t2) +
+                           " goes backwards (line 5 has " + std::to_string(t3) + ")";
+  EXPECT_EQ(LibraryError(), want);
+  ExpectInfoError({want});
+}
+
 TEST_F(BadInput, DuplicateTimestamp) {
   // IMU sample on line 6 repeats the time of line 5.
   const int64_t t5 = t_[0] - 20'000'000 + 3 * 5'000'000;

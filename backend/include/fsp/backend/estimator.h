@@ -51,6 +51,37 @@ namespace fsp::backend {
 enum class EstimatorMode { kWindow, kBatch };
 enum class LandmarkType { kFsp, kFhp };
 
+// What real drivers do to the input, and how the estimator detects that its state went wrong
+// (backend/README.md, "Gaps and faults"). Nothing here changes a run without such faults.
+struct FaultOptions {
+  // The IMU stream has a hole longer than this between two keyframes: the preintegration across it
+  // is replaced by a constant-velocity motion prior (priors.h, MakeImuGapPrior) [s]. Shorter holes
+  // are interpolated by the preintegration (dropped samples).
+  double max_imu_gap_s = 0.1;
+  // The motion prior's bounds: accelerations [m/s^2] and turn rates [rad/s] it allows per second
+  // of gap.
+  double gap_max_acc = 2.0;
+  double gap_max_rate = 1.0;
+  // Consecutive frames further apart than this are a frame gap (counted and warned; the IMU
+  // preintegration bridges it) [s].
+  double frame_gap_s = 0.5;
+  // A stretch of at least this long with no object observation is counted and warned [s].
+  double blind_s = 2.0;
+  // Divergence: a solve that fails, leaves a non-finite state, a speed above max_speed [m/s], a
+  // bias above max_gyro_bias [rad/s] / max_acc_bias [m/s^2], or moves a keyframe further than
+  // max_jump_m [m] is rejected (the states before it are restored) and the estimator restarts a
+  // new session at the newest frame.
+  double max_speed = 30.0;
+  double max_gyro_bias = 1.0;
+  double max_acc_bias = 2.0;
+  double max_jump_m = 5.0;
+  // A restarted session's priors: velocity σ around the last plausible velocity [m/s], roll and
+  // pitch σ [rad].
+  double restart_velocity_sigma = 1.0;
+  double restart_roll_pitch_sigma = 0.1;
+  bool Check(std::string* why) const;
+};
+
 struct EstimatorOptions {
   EstimatorMode mode = EstimatorMode::kWindow;
   LandmarkType landmarks = LandmarkType::kFsp;
@@ -112,6 +143,7 @@ struct EstimatorOptions {
   double reinit_gate_px = 0.0;
   // Objects (instances) seen by fewer keyframes than this are not reported in the map.
   int min_observations = 3;
+  FaultOptions faults;
   bool Check(std::string* why) const;
 };
 
@@ -143,6 +175,20 @@ struct EstimatorSummary {
       backend_ms;               // wall time of each frame's update (solve + marginalisation) [ms]
   double batch_solve_ms = 0.0;  // the final full solve (batch mode) [ms]
   double final_cost = 0.0;
+  // Faults (FaultOptions): holes in the IMU stream bridged by the motion prior, frame gaps,
+  // stretches without any object in view, rejected solves (divergences) and session restarts.
+  int imu_gaps = 0;
+  double imu_gap_max_s = 0.0;
+  int imu_gap_links = 0;  // keyframe links bridged by the motion prior
+  int frame_gaps = 0;
+  double frame_gap_max_s = 0.0;
+  int blind_stretches = 0;
+  double blind_max_s = 0.0;
+  int divergences = 0;
+  int resets = 0;
+  // One line per fault, "t=12.35 s: what happened, what was done" (the first kMaxWarnings).
+  static constexpr int kMaxWarnings = 50;
+  std::vector<std::string> warnings;
 };
 
 class Estimator {

@@ -1,6 +1,7 @@
 // Simple priors that fix the gauge and regularise the start of the estimation.
 #pragma once
 
+#include <ceres/cost_function.h>
 #include <ceres/sized_cost_function.h>
 
 #include "fsp/backend/state.h"
@@ -46,5 +47,24 @@ class LogWidthPrior final : public ceres::SizedCostFunction<1, 5> {
  private:
   double log_w0_, inv_sigma_;
 };
+
+// Stands in for the IMU factor between two keyframes when the IMU stream has a hole between them
+// (a driver gap: preintegration over missing samples is unusable). A constant-velocity motion
+// model with an inflated covariance, the 15 residuals of the IMU factor's blocks:
+//   r_θ = Log(R_iᵀ R_j) / (ω_max Δt),       r_v = (v_j − v_i) / (a_max Δt),
+//   r_p = (p_j − p_i − ½ (v_i + v_j) Δt) / (a_max Δt²),
+//   r_bg = (b_g,j − b_g,i) / (σ_gw √Δt),    r_ba = (b_a,j − b_a,i) / (σ_aw √Δt)
+// (a constant acceleration a leaves r_p = 0 and r_v = a Δt: the prior says "accelerations and
+// turn rates up to a_max, ω_max"; the bias random walk is the IMU's own). It keeps the problem well
+// posed across the gap while visual factors, where objects are in view, determine the motion.
+// Blocks: pose_i[7], speed_bias_i[9], pose_j[7], speed_bias_j[9] (state.h). Automatic
+// derivatives in the ambient parameters. Requires dt_s > 0 and positive sigmas (checked).
+struct ImuGapPriorOptions {
+  double max_acc = 2.0;       // a_max [m/s^2]
+  double max_rate = 1.0;      // ω_max [rad/s]
+  double gyro_walk = 1.9e-5;  // σ_gw [rad/s^2/√Hz]
+  double acc_walk = 3.0e-3;   // σ_aw [m/s^3/√Hz]
+};
+ceres::CostFunction* MakeImuGapPrior(double dt_s, const ImuGapPriorOptions& options);
 
 }  // namespace fsp::backend
