@@ -300,15 +300,16 @@ bool IsBrightMargin(const cv::Mat& smooth, const PinholeRadtan* cam, const Corne
          sd[1] <= o.margin_max_texture * contrast && sd[0] <= o.margin_max_texture * contrast;
 }
 
-void VerifyQuads(std::vector<Quad>& refined, const EdgeProbe& probe, const Mat3& K,
+void VerifyQuads(std::vector<Quad>& refined, const EdgeProbe& probe, const std::vector<Mat3>& Ks,
                  const Vec3* gravity_C, double probe_side, std::vector<Quad>* good,
                  std::vector<Quad>* cut_off) {
   const RectDetectorOptions& o = probe.o;
+  const Mat3& K = Ks[Ks.size() / 2];
   for (Quad& q : refined) {
     if (ShortestSide(q.c) < probe_side) continue;
     q.c_grouping = q.c;
     q.c = CanonicalOrder(q.c, &K, gravity_C);
-    const RectangleTest t = ZhangHeTest(q.c, K);
+    const RectangleTest t = BestRectangleTest(q.c, Ks);
     if (!t.valid || t.abs_cos > o.max_abs_cos) continue;
     q.aspect_w_h = t.aspect_12_14;
     if (q.aspect_w_h > o.max_aspect || q.aspect_w_h < 1.0 / o.max_aspect) continue;
@@ -330,6 +331,32 @@ void VerifyQuads(std::vector<Quad>& refined, const EdgeProbe& probe, const Mat3&
     // when one would mark a margin.
     good->push_back(q);
   }
+}
+
+RectangleTest BestRectangleTest(const Corners& undistorted_px, const std::vector<Mat3>& Ks) {
+  RectangleTest best;
+  for (const Mat3& K : Ks) {
+    const RectangleTest t = ZhangHeTest(undistorted_px, K);
+    if (t.valid && (!best.valid || t.abs_cos < best.abs_cos)) best = t;
+  }
+  return best;
+}
+
+std::vector<Mat3> CandidateIntrinsics(const RectDetectorOptions& o, int cols, int rows,
+                                      const PinholeRadtan* camera) {
+  if (camera) return {camera->K()};
+  if (o.focal_prior_steps < 1) return {DefaultK(cols, rows, o.assumed_hfov_deg)};
+  std::vector<Mat3> Ks;
+  const double long_side = std::max(cols, rows);
+  for (int k = 0; k < o.focal_prior_steps; ++k) {
+    const double t = o.focal_prior_steps == 1 ? 0.5 : k / (o.focal_prior_steps - 1.0);
+    const double f =
+        long_side * o.focal_prior_min * std::pow(o.focal_prior_max / o.focal_prior_min, t);
+    Mat3 K;
+    K << f, 0.0, 0.5 * (cols - 1), 0.0, f, 0.5 * (rows - 1), 0.0, 0.0, 1.0;
+    Ks.push_back(K);
+  }
+  return Ks;
 }
 
 std::vector<Detection> MakeDetections(const std::vector<Quad>& quads, const EdgeProbe& probe) {

@@ -73,7 +73,36 @@ TEST(RealPhotos, DoorsDevSet) {
   ASSERT_EQ(names.size(), 35u);
   const char* draw_env = std::getenv("FSP_DOORS_DRAW");
   const std::string draw = draw_env ? draw_env : "";
-  const RectDetector det;
+  RectDetector::Options opt;
+  // Experiments: $FSP_DOORS_OPTS = "name=value,..." for a few options.
+  if (const char* env = std::getenv("FSP_DOORS_OPTS")) {
+    std::istringstream is(env);
+    std::string kv;
+    while (std::getline(is, kv, ',')) {
+      const auto eq = kv.find('=');
+      const std::string k = kv.substr(0, eq);
+      const double v = std::stod(kv.substr(eq + 1));
+      if (k == "merge_line_px") opt.merge_line_px = v;
+      if (k == "merge_angle_deg") opt.merge_angle_deg = v;
+      if (k == "merge_gap_frac") opt.merge_gap_frac = v;
+      if (k == "junction_gap_frac") opt.junction_gap_frac = v;
+      if (k == "junction_overshoot_frac") opt.junction_overshoot_frac = v;
+      if (k == "min_side_support") opt.min_side_support = v;
+      if (k == "max_side_continuation") opt.max_side_continuation = v;
+      if (k == "min_corner_reach") opt.min_corner_reach = v;
+      if (k == "canny_noise_multiple") opt.canny_noise_multiple = v;
+      if (k == "min_edge_contrast") opt.min_edge_contrast = v;
+      if (k == "max_abs_cos") opt.max_abs_cos = v;
+      if (k == "detect_long_side") opt.detect_long_side = static_cast<int>(v);
+      if (k == "nest_score_margin") opt.nest_score_margin = v;
+      if (k == "drop_contained") opt.drop_contained = v != 0;
+      if (k == "segment_fit_px") opt.segment_fit_px = v;
+      if (k == "min_side_frac") opt.min_side_frac = v;
+      if (k == "search_px") opt.search_px = v;
+      if (k == "container_outside_frac") opt.container_outside_frac = v;
+    }
+  }
+  const RectDetector det(opt);
   int found = 0, extras = 0;
   double total_ms = 0;
   std::printf("%-22s %5s %5s %6s %6s %6s\n", "photo", "found", "IoU", "extras", "ms", "size");
@@ -95,6 +124,34 @@ TEST(RealPhotos, DoorsDevSet) {
     total_ms += res.times.Total();
     std::printf("%-22s %5s %5.2f %6d %6.1f %dx%d\n", name.c_str(), ok ? "yes" : "NO", best, extra,
                 res.times.Total(), gray.cols, gray.rows);
+    if (std::getenv("FSP_DOORS_TIMES")) std::printf("    %s\n", res.times.ToString().c_str());
+    if (!draw.empty() && std::getenv("FSP_DOORS_DEBUG")) {
+      // The detection level's pipeline with its debug output: segments (blue), quads that passed
+      // verification (green), detections (red).
+      RectDetector::Options dbg_o = opt;
+      dbg_o.debug = true;
+      dbg_o.detect_long_side = 0;
+      cv::Mat level;
+      const int k = std::max(1, std::max(gray.cols, gray.rows) / std::max(1, opt.detect_long_side));
+      cv::resize(gray, level, cv::Size(gray.cols / k, gray.rows / k), 0, 0, cv::INTER_AREA);
+      const auto dr = RectDetector(dbg_o).Detect(level);
+      cv::Mat img;
+      cv::cvtColor(level, img, cv::COLOR_GRAY2BGR);
+      for (const auto& [a, b] : dr.segment_ends)
+        cv::line(img, cv::Point2d(a.x(), a.y()), cv::Point2d(b.x(), b.y()), cv::Scalar(255, 0, 0));
+      for (const auto& [c, sc] : dr.verified_quads)
+        for (int i = 0; i < 4; ++i)
+          cv::line(img, cv::Point2d(c[i].x(), c[i].y()),
+                   cv::Point2d(c[(i + 1) % 4].x(), c[(i + 1) % 4].y()), cv::Scalar(0, 255, 0));
+      for (const Detection& d : dr.detections)
+        for (int i = 0; i < 4; ++i)
+          cv::line(img, cv::Point2d(d.corners_px[i].x(), d.corners_px[i].y()),
+                   cv::Point2d(d.corners_px[(i + 1) % 4].x(), d.corners_px[(i + 1) % 4].y()),
+                   cv::Scalar(0, 0, 255), 2);
+      std::printf("    level: %d segments, %d hypotheses, %d refined, %zu verified\n", dr.segments,
+                  dr.hypotheses, dr.refined, dr.verified_quads.size());
+      cv::imwrite(draw + "/" + stem + "_debug.jpg", img);
+    }
     if (!draw.empty()) {
       cv::Mat img = DrawDetections(gray, res.detections);
       cv::rectangle(img, cv::Point2d(truth.x0, truth.y0), cv::Point2d(truth.x1, truth.y1),
