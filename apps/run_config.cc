@@ -157,6 +157,8 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.rect.max_abs_cos", &f.rect.max_abs_cos, kNonNegative},
       {"frontend.rect.max_aspect", &f.rect.max_aspect, kNonNegative},
       {"frontend.rect.assumed_hfov_deg", &f.rect.assumed_hfov_deg, kNonNegative},
+      {"frontend.rect.uncalibrated_container_outside_frac",
+       &f.rect.uncalibrated_container_outside_frac, kNonNegative},
       {"frontend.rect.focal_prior_min", &f.rect.focal_prior_min, kNonNegative},
       {"frontend.rect.focal_prior_max", &f.rect.focal_prior_max, kNonNegative},
       {"frontend.rect.focal_prior_steps", &f.rect.focal_prior_steps, kNonNegative},

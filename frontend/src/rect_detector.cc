@@ -56,6 +56,8 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (detect_long_side < 0) os << "detect_long_side must be >= 0; ";
   if (!(focal_prior_min > 0.0 && focal_prior_max >= focal_prior_min))
     os << "focal_prior_min must be positive and <= focal_prior_max; ";
+  if (!(uncalibrated_container_outside_frac >= 0.0))
+    os << "uncalibrated_container_outside_frac must be >= 0; ";
   if (focal_prior_steps < 0) os << "focal_prior_steps must be >= 0; ";
   if (!(assumed_hfov_deg > 1.0 && assumed_hfov_deg < 179.0))
     os << "assumed_hfov_deg must be in (1, 179); ";
@@ -81,10 +83,15 @@ namespace {
 
 // The pipeline on one image (the detection level); `smooth_out` (optional) receives the smoothed
 // image the refinement read.
-RectDetector::Result DetectLevel(const RectDetectorOptions& o, const cv::Mat& gray,
+RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::Mat& gray,
                                  const PinholeRadtan* camera, const Vec3* gravity_C,
                                  cv::Mat* smooth_out) {
   namespace ri = rect_internal;
+  RectDetectorOptions uncalibrated = options;
+  if (!camera) {
+    uncalibrated.container_outside_frac = options.uncalibrated_container_outside_frac;
+  }
+  const RectDetectorOptions& o = camera ? options : uncalibrated;
   RectDetector::Result res;
   Stopwatch sw;
   const double diag = std::hypot(gray.cols, gray.rows);
