@@ -56,6 +56,8 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (detect_long_side < 0) os << "detect_long_side must be >= 0; ";
   if (!(focal_prior_min > 0.0 && focal_prior_max >= focal_prior_min))
     os << "focal_prior_min must be positive and <= focal_prior_max; ";
+  if (reach_failures_allowed < 0 || uncalibrated_reach_failures_allowed < 0)
+    os << "reach_failures_allowed must be >= 0; ";
   if (!(uncalibrated_container_outside_frac >= 0.0))
     os << "uncalibrated_container_outside_frac must be >= 0; ";
   if (focal_prior_steps < 0) os << "focal_prior_steps must be >= 0; ";
@@ -90,6 +92,7 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   RectDetectorOptions uncalibrated = options;
   if (!camera) {
     uncalibrated.container_outside_frac = options.uncalibrated_container_outside_frac;
+    uncalibrated.reach_failures_allowed = options.uncalibrated_reach_failures_allowed;
   }
   const RectDetectorOptions& o = camera ? options : uncalibrated;
   RectDetector::Result res;

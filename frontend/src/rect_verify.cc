@@ -219,16 +219,27 @@ double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int r
 // quad closed by a line a little beyond the object, such as the outer edge of a tag's white
 // margin with the black square's other three sides).
 bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges) {
+  int short_ends = 0;  // side ends whose edge does not reach the corner
+  // Only the ends at the lowest corner in the image (a door's bottom in shadow, on the floor) may
+  // fail the reach test.
+  int lowest = 0;
+  for (int i = 1; i < 4; ++i)
+    if (c[i].y() > c[lowest].y()) lowest = i;
   for (int side = 0; side < 4; ++side) {
     const Vec2 P = c[(side + 3) % 4], Q = c[side];
     const double L = (Q - P).norm();
     const Vec2 u = (Q - P) / L;
     const Vec2 us = edges[side].curved ? edges[side].dir_start : u;
     const Vec2 ue = edges[side].curved ? edges[side].dir_end : u;
-    if (probe.o.min_corner_reach > 0.0 &&
-        (CornerReach(probe, Q, -ue, true, L, edges[side]) < probe.o.min_corner_reach ||
-         CornerReach(probe, P, us, false, L, edges[side]) < probe.o.min_corner_reach))
-      return true;
+    if (probe.o.min_corner_reach > 0.0) {
+      const bool q_short =
+          CornerReach(probe, Q, -ue, true, L, edges[side]) < probe.o.min_corner_reach;
+      const bool p_short =
+          CornerReach(probe, P, us, false, L, edges[side]) < probe.o.min_corner_reach;
+      if ((q_short && side != lowest) || (p_short && (side + 3) % 4 != lowest)) return true;
+      short_ends += q_short + p_short;
+      if (short_ends > probe.o.reach_failures_allowed) return true;
+    }
     if (SideContinuation(probe, Q, ue, false, L, edges[side]) > probe.o.max_side_continuation ||
         SideContinuation(probe, P, -us, true, L, edges[side]) > probe.o.max_side_continuation)
       return true;

@@ -100,6 +100,7 @@ TEST(RealPhotos, DoorsDevSet) {
       if (k == "min_side_frac") opt.min_side_frac = v;
       if (k == "search_px") opt.search_px = v;
       if (k == "reach_frac") opt.reach_frac = v;
+      if (k == "reach_failures") opt.uncalibrated_reach_failures_allowed = static_cast<int>(v);
       if (k == "reach_min_px") opt.reach_min_px = v;
       if (k == "reach_start_px") opt.reach_start_px = v;
       if (k == "ransac_inlier_px") opt.ransac_inlier_px = v;
@@ -172,8 +173,8 @@ TEST(RealPhotos, DoorsDevSet) {
   }
   std::printf("doors found %d/35, extras %d (%.2f per photo), mean %.1f ms\n", found, extras,
               extras / 35.0, total_ms / 35);
-  // Pinned at what the detector reaches (14 / 35, 9 extras); the issue asks for >= 90 % (32 / 35).
-  EXPECT_GE(found, 14);
+  // Pinned at what the detector reaches (15 / 35, 10 extras); the issue asks for >= 90 % (32 / 35).
+  EXPECT_GE(found, 15);
   EXPECT_LE(extras, 35);  // at most one other rectangle per photo on average
 }
 
