@@ -295,12 +295,13 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
 }
 
 std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<Seg>& segs,
-                                   const EdgeProbe& probe, const Mat3& K, double min_gradient) {
+                                   const EdgeProbe& probe, const std::vector<Mat3>& Ks,
+                                   double min_gradient) {
   const RectDetectorOptions& o = probe.o;
   std::mt19937 rng(o.seed);
   std::vector<Quad> refined;
   for (Quad& q : quads) {
-    const RectangleTest pre = ZhangHeTest(q.c, K);
+    const RectangleTest pre = BestRectangleTest(q.c, Ks);
     if (!pre.valid || pre.abs_cos > std::min(1.0, 2.0 * o.max_abs_cos)) continue;
     // A corner so far out of view that refinement (which moves corners by at most 0.2 x the
     // shortest side + 2 search_px) cannot bring it within the cut-off container limit: neither a

@@ -22,6 +22,7 @@
 #include "fsp/common/types.h"
 #include "fsp/frontend/detection.h"
 #include "fsp/frontend/rect_detector.h"
+#include "fsp/frontend/rect_geometry.h"
 
 namespace fsp::frontend::rect_internal {
 
@@ -228,6 +229,16 @@ std::vector<std::pair<Vec2, Vec2>> TracePieces(cv::Mat& edges, int min_piece, do
 
 // ---- 2. segments (rect_segments.cc) ----
 
+// The rectangle test over candidate intrinsics: the calibration's K alone, or without one the
+// focal-length prior (RectDetectorOptions::focal_prior_*): the result with the smallest |cos|.
+RectangleTest BestRectangleTest(const Corners& undistorted_px, const std::vector<Mat3>& Ks);
+
+// Candidate intrinsics for the rectangle test: {camera K} with a calibration, else
+// `focal_prior_steps` focal lengths spaced geometrically over [focal_prior_min, focal_prior_max] x
+// the longer image side, principal point at the centre.
+std::vector<Mat3> CandidateIntrinsics(const RectDetectorOptions& o, int cols, int rows,
+                                      const PinholeRadtan* camera);
+
 std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, double line_px,
                                 double gap_px);
 std::vector<Seg> CurvedChains(const std::vector<Seg>& segs, double touch_px, double step_deg,
@@ -261,7 +272,8 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
 // The refinement stage: a cheap rectangle pre-test (twice the tolerance) on the hypothesis
 // corners, a reach test for corners out of view, then RefineQuad; returns the refined quads.
 std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<Seg>& segs,
-                                   const EdgeProbe& probe, const Mat3& K, double min_gradient);
+                                   const EdgeProbe& probe, const std::vector<Mat3>& Ks,
+                                   double min_gradient);
 
 // ---- 5. verification (rect_verify.cc) ----
 
@@ -277,7 +289,7 @@ bool IsBrightMargin(const cv::Mat& smooth, const PinholeRadtan* cam, const Corne
 // The verification stage on the refined quads: canonical corner order, rectangle and aspect tests,
 // every corner in view. Quads cut off by the border by a little go to `cut_off` (containers for
 // the suppression stage), the others to `good`.
-void VerifyQuads(std::vector<Quad>& refined, const EdgeProbe& probe, const Mat3& K,
+void VerifyQuads(std::vector<Quad>& refined, const EdgeProbe& probe, const std::vector<Mat3>& Ks,
                  const Vec3* gravity_C, double probe_side, std::vector<Quad>* good,
                  std::vector<Quad>* cut_off);
 

@@ -219,16 +219,27 @@ double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int r
 // quad closed by a line a little beyond the object, such as the outer edge of a tag's white
 // margin with the black square's other three sides).
 bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges) {
+  int short_ends = 0;  // side ends whose edge does not reach the corner
+  // Only the ends at the lowest corner in the image (a door's bottom in shadow, on the floor) may
+  // fail the reach test.
+  int lowest = 0;
+  for (int i = 1; i < 4; ++i)
+    if (c[i].y() > c[lowest].y()) lowest = i;
   for (int side = 0; side < 4; ++side) {
     const Vec2 P = c[(side + 3) % 4], Q = c[side];
     const double L = (Q - P).norm();
     const Vec2 u = (Q - P) / L;
     const Vec2 us = edges[side].curved ? edges[side].dir_start : u;
     const Vec2 ue = edges[side].curved ? edges[side].dir_end : u;
-    if (probe.o.min_corner_reach > 0.0 &&
-        (CornerReach(probe, Q, -ue, true, L, edges[side]) < probe.o.min_corner_reach ||
-         CornerReach(probe, P, us, false, L, edges[side]) < probe.o.min_corner_reach))
-      return true;
+    if (probe.o.min_corner_reach > 0.0) {
+      const bool q_short =
+          CornerReach(probe, Q, -ue, true, L, edges[side]) < probe.o.min_corner_reach;
+      const bool p_short =
+          CornerReach(probe, P, us, false, L, edges[side]) < probe.o.min_corner_reach;
+      if ((q_short && side != lowest) || (p_short && (side + 3) % 4 != lowest)) return true;
+      short_ends += q_short + p_short;
+      if (short_ends > probe.o.reach_failures_allowed) return true;
+    }
     if (SideContinuation(probe, Q, ue, false, L, edges[side]) > probe.o.max_side_continuation ||
         SideContinuation(probe, P, -us, true, L, edges[side]) > probe.o.max_side_continuation)
       return true;
@@ -300,15 +311,16 @@ bool IsBrightMargin(const cv::Mat& smooth, const PinholeRadtan* cam, const Corne
          sd[1] <= o.margin_max_texture * contrast && sd[0] <= o.margin_max_texture * contrast;
 }
 
-void VerifyQuads(std::vector<Quad>& refined, const EdgeProbe& probe, const Mat3& K,
+void VerifyQuads(std::vector<Quad>& refined, const EdgeProbe& probe, const std::vector<Mat3>& Ks,
                  const Vec3* gravity_C, double probe_side, std::vector<Quad>* good,
                  std::vector<Quad>* cut_off) {
   const RectDetectorOptions& o = probe.o;
+  const Mat3& K = Ks[Ks.size() / 2];
   for (Quad& q : refined) {
     if (ShortestSide(q.c) < probe_side) continue;
     q.c_grouping = q.c;
     q.c = CanonicalOrder(q.c, &K, gravity_C);
-    const RectangleTest t = ZhangHeTest(q.c, K);
+    const RectangleTest t = BestRectangleTest(q.c, Ks);
     if (!t.valid || t.abs_cos > o.max_abs_cos) continue;
     q.aspect_w_h = t.aspect_12_14;
     if (q.aspect_w_h > o.max_aspect || q.aspect_w_h < 1.0 / o.max_aspect) continue;
@@ -330,6 +342,32 @@ void VerifyQuads(std::vector<Quad>& refined, const EdgeProbe& probe, const Mat3&
     // when one would mark a margin.
     good->push_back(q);
   }
+}
+
+RectangleTest BestRectangleTest(const Corners& undistorted_px, const std::vector<Mat3>& Ks) {
+  RectangleTest best;
+  for (const Mat3& K : Ks) {
+    const RectangleTest t = ZhangHeTest(undistorted_px, K);
+    if (t.valid && (!best.valid || t.abs_cos < best.abs_cos)) best = t;
+  }
+  return best;
+}
+
+std::vector<Mat3> CandidateIntrinsics(const RectDetectorOptions& o, int cols, int rows,
+                                      const PinholeRadtan* camera) {
+  if (camera) return {camera->K()};
+  if (o.focal_prior_steps < 1) return {DefaultK(cols, rows, o.assumed_hfov_deg)};
+  std::vector<Mat3> Ks;
+  const double long_side = std::max(cols, rows);
+  for (int k = 0; k < o.focal_prior_steps; ++k) {
+    const double t = o.focal_prior_steps == 1 ? 0.5 : k / (o.focal_prior_steps - 1.0);
+    const double f =
+        long_side * o.focal_prior_min * std::pow(o.focal_prior_max / o.focal_prior_min, t);
+    Mat3 K;
+    K << f, 0.0, 0.5 * (cols - 1), 0.0, f, 0.5 * (rows - 1), 0.0, 0.0, 1.0;
+    Ks.push_back(K);
+  }
+  return Ks;
 }
 
 std::vector<Detection> MakeDetections(const std::vector<Quad>& quads, const EdgeProbe& probe) {

@@ -65,6 +65,20 @@ void BM_RectEuroc640(benchmark::State& state) {
 }
 BENCHMARK(BM_RectEuroc640)->Unit(benchmark::kMillisecond);
 
+// Door photos of doors_dev (no calibration): Arg 0 = DOR_S3_24.JPG (3456x4608, 15.9 MP, detected on
+// a 493x658 level), 1 = DOR_S1_121.jpg (2640x4037, 10.7 MP, 440x672), 2 = 0e25d39652fdda48.jpg
+// (768x1024, 384x512).
+void BM_RectDoorPhoto(benchmark::State& state) {
+  const char* names[] = {"DOR_S3_24.JPG", "DOR_S1_121.jpg", "0e25d39652fdda48.jpg"};
+  const std::string path = DataDir() + "/doors_dev/images/" + names[state.range(0)];
+  if (!std::filesystem::exists(path)) {
+    state.SkipWithError("shared test data not found (set FSP_TEST_DATA)");
+    return;
+  }
+  RunRect(state, ReadGray8(path));
+}
+BENCHMARK(BM_RectDoorPhoto)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+
 void BM_AprilTagUmich(benchmark::State& state) {
   const std::string path = DataDir() + "/apriltag_umich_test/33369213973_9d9bb4cc96_c.jpg";
   if (!std::filesystem::exists(path)) {

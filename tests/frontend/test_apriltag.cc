@@ -3,7 +3,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -153,6 +157,53 @@ TEST(AprilTag, UnknownFamilyIsAnInputError) {
     o.family = f;
     EXPECT_NO_THROW(AprilTagDetector{o}) << f;
   }
+}
+
+// `fsp detect --frontend apriltag` with its defaults on the three reference photos: decimation from
+// the image size (1 for these 799 px photos) and edge refinement only when decimating find all 47
+// tags within 0.2 px of the reference (with the library defaults, decimate 2 and refine_edges: 34,
+// median 0.51 px).
+TEST(AprilTag, DetectCliDefaultsFindAllUmichTags) {
+  FSP_REQUIRE_TEST_DATA(dir, "apriltag_umich_test");
+  const auto out = ::fsp::test::ScratchDir();
+  const char* names[] = {"33369213973_9d9bb4cc96_c", "34085369442_304b6bafd9_c",
+                         "34139872896_defdb2f8d9_c"};
+  std::string args = "detect --frontend apriltag --out " + out.string();
+  for (const char* name : names) args += " " + dir + "/" + name + ".jpg";
+  const auto r = ::fsp::test::RunFsp(args);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // detections.csv: image,tag_id,class,u1,v1,...,u4,v4,score
+  std::map<std::string, std::vector<RefTag>> got;
+  std::ifstream csv(out / "detections.csv");
+  std::string line;
+  std::getline(csv, line);
+  while (std::getline(csv, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) f.push_back(cell);
+    ASSERT_EQ(f.size(), 12u) << line;
+    RefTag t;
+    t.id = std::stoi(f[1]);
+    for (int i = 0; i < 4; ++i) t.p[i] = Vec2(std::stod(f[3 + 2 * i]), std::stod(f[4 + 2 * i]));
+    got[f[0]].push_back(t);
+  }
+  int within = 0, total = 0;
+  for (const char* name : names) {
+    for (const RefTag& ref : ReadReference(dir + "/" + name + ".expected.txt")) {
+      ++total;
+      double best = 1e9;
+      for (const RefTag& d : got[std::string(name) + ".jpg"]) {
+        if (d.id != ref.id) continue;
+        double e = 0.0;
+        for (int i = 0; i < 4; ++i) e = std::max(e, (d.p[i] + Vec2(0.5, 0.5) - ref.p[i]).norm());
+        best = std::min(best, e);
+      }
+      within += best <= 0.2;
+    }
+  }
+  EXPECT_EQ(total, 47);
+  EXPECT_EQ(within, 47);
 }
 
 }  // namespace

@@ -60,6 +60,17 @@ namespace fsp::frontend {
 
 // Options of RectDetector (see the class comment).
 struct RectDetectorOptions {
+  // --- 0. resolution ---
+  // Images whose longer side is at least twice this [px] are detected on a level reduced by the
+  // largest integer factor k that keeps the longer side >= this (area averaging; the level's
+  // longer side is then in [detect_long_side, 2 x detect_long_side)), and the corners of each
+  // detection are refined on the full-resolution image (the polarity of each side as found on the
+  // level, a search of +-max(search_px, 1.5 k) px). A 12-megapixel photo is detected like a
+  // 640 x 480 frame: the fractions of the image below then mean the same thing at every resolution,
+  // the pixel values (edge blur, search widths, slacks) are level pixels, and the time does not
+  // grow with the pixel count. 0 detects at full resolution.
+  int detect_long_side = 400;
+
   // --- 1. edges ---
   // High Canny threshold as a multiple of the gradient noise level, estimated as the median Sobel
   // magnitude / 1.177 (the Rayleigh median for pure noise). Lower finds fainter edges but more
@@ -166,6 +177,10 @@ struct RectDetectorOptions {
   // quad (its corner lies beyond where the side's edge ends: a tag's black square closed on one
   // side by the outer edge of its white margin). 0 switches the test off.
   double min_corner_reach = 0.5;
+  // Side ends that may fail the corner reach test, and only the two ends at the quad's lowest
+  // corner in the image (a door's bottom in shadow or on a floor line). 0: every side reaches every
+  // corner. Without a calibration `uncalibrated_reach_failures_allowed` is used instead.
+  int reach_failures_allowed = 0;
   double reach_start_px = 2.0;
   double reach_min_px = 6.0;
   double reach_frac = 0.1;
@@ -176,8 +191,30 @@ struct RectDetectorOptions {
   double max_abs_cos = 0.2;
   // Largest metric aspect ratio (long side / short side) accepted.
   double max_aspect = 8.0;
-  // Horizontal field of view [deg] assumed for K when no calibration is given.
+  // Horizontal field of view [deg] assumed for K when no calibration is given (corner order with a
+  // gravity direction; the rectangle test with focal_prior_steps = 0).
   double assumed_hfov_deg = 60.0;
+  // Without a calibration the focal length is unknown (phones and consumer cameras: ~0.7-1.2 x the
+  // longer image side): the rectangle test passes when it passes for some focal length of
+  // `focal_prior_steps` values spaced geometrically over [focal_prior_min, focal_prior_max] x the
+  // longer image side (principal point at the centre), its metric aspect taken at that focal
+  // length. A trapezoid seen in perspective (a door from the side) passes at the focal length of
+  // the camera; a quad that is no rectangle at any plausible focal length does not. With a
+  // calibration its K alone is used.
+  // Without a calibration (still photos of unknown cameras) the containers use this instead of
+  // container_outside_frac. Measured on the real door photos of tests/frontend/test_doors.cc: a
+  // quad closed by a floor or ceiling line just out of view contains the door and hid it (7 / 35
+  // doors found with 0.25, 14 with 0). (Relaxing the L-corner tests as well finds more doors, 17
+  // with a corner reach of 0.25 and 22 with none, but lets the sudoku page's border-line variants
+  // through: its corners are then 37 px off.) With a calibration nothing changes.
+  double uncalibrated_container_outside_frac = 0.0;
+  // Without a calibration: reach_failures_allowed (2: the lowest corner need not be reached;
+  // doors_dev 15 / 35 against 14, the sudoku page unchanged; any corner, 1 end: 16 / 35 but a
+  // second sudoku detection).
+  int uncalibrated_reach_failures_allowed = 2;
+  double focal_prior_min = 0.6;
+  double focal_prior_max = 1.6;
+  int focal_prior_steps = 7;
   // Largest distance of a corner outside the image [px, distorted]. A corner outside is not
   // observed: the sides that meet there run out of view and the quad is usually closed by another
   // line (a cut-off door closed by its panel groove). Larger keeps such guesses.
