@@ -30,20 +30,17 @@ struct DetectArgs {
   std::string frontend = "rect";
   std::string calib;
   std::string out;
-  std::string family = "tag36h11";
-  // AprilTag options for still images; decimate 0 = chosen from the image size (1 below 2000 px on
-  // the longer side: a still photo has the time to spare, and decimation loses small tags and moves
-  // corners by ~0.5 px; then the factor that brings the longer side under 2000 px).
+  // AprilTag options (family, sigma, decoding) as given; decimate and refine_edges are set per
+  // image from the two below.
+  frontend::AprilTagDetectorOptions tag;
+  // Decimation for still images; 0 = chosen from the image size (1 below 2000 px on the longer
+  // side: a still photo has the time to spare, and decimation loses small tags and moves corners by
+  // ~0.5 px; then the factor that brings the longer side under 2000 px).
   double decimate = 0.0;
-  double sigma = frontend::AprilTagDetectorOptions().sigma;
   // auto: only when decimating (the edges of a decimated quad are snapped to the full image; at
   // decimate 1 the snapping moves the corners of the reference photos by ~0.5 px).
   std::string refine_edges = "auto";
-  double decode_sharpening = frontend::AprilTagDetectorOptions().decode_sharpening;
-  int max_hamming = frontend::AprilTagDetectorOptions().max_hamming;
-  double min_decision_margin = frontend::AprilTagDetectorOptions().min_decision_margin;
-  // Rectangle options.
-  int detect_long_side = frontend::RectDetectorOptions().detect_long_side;
+  frontend::RectDetectorOptions rect;
 };
 
 // AprilTag quad decimation for a still image whose longer side is `long_side` px.
@@ -56,19 +53,12 @@ void RunDetect(const DetectArgs& args) {
   if (!args.calib.empty()) calib = ReadCalibration(args.calib);
   std::unique_ptr<frontend::RectDetector> rect;
   std::unique_ptr<frontend::AprilTagDetector> tags;
-  frontend::AprilTagDetector::Options tag_o;
-  tag_o.family = args.family;
-  tag_o.sigma = args.sigma;
-  tag_o.decode_sharpening = args.decode_sharpening;
-  tag_o.max_hamming = args.max_hamming;
-  tag_o.min_decision_margin = args.min_decision_margin;
+  frontend::AprilTagDetectorOptions tag_o = args.tag;
   double tag_decimate = -1.0;  // of the detector in `tags`
   if (args.frontend != "apriltag") {
-    frontend::RectDetector::Options o;
-    o.detect_long_side = args.detect_long_side;
     std::string why;
-    if (!o.Check(&why)) throw InputError("--detect-long-side", 0, why);
-    rect = std::make_unique<frontend::RectDetector>(o);
+    if (!args.rect.Check(&why)) throw InputError("--detect-long-side", 0, why);
+    rect = std::make_unique<frontend::RectDetector>(args.rect);
   }
   std::ofstream csv;
   if (!args.out.empty()) {
@@ -149,25 +139,26 @@ void AddDetectCommand(CLI::App& root) {
   sub->add_option("images", args->images, "8-bit images (PNG, JPEG, ...)")->required();
   sub->add_option("--frontend", args->frontend, "rect (plain rectangles) or apriltag")
       ->check(CLI::IsMember({"rect", "apriltag"}));
-  sub->add_option("--family", args->family, "AprilTag family (with --frontend apriltag)");
+  sub->add_option("--family", args->tag.family, "AprilTag family (with --frontend apriltag)");
   sub->add_option("--decimate", args->decimate,
                   "AprilTag quad decimation; 0 (default) = from the image size: 1 up to 2000 px on "
                   "the longer side");
-  sub->add_option("--sigma", args->sigma, "AprilTag Gaussian blur before quad detection [px]")
+  sub->add_option("--sigma", args->tag.sigma, "AprilTag Gaussian blur before quad detection [px]")
       ->capture_default_str();
   sub->add_option("--refine-edges", args->refine_edges,
                   "AprilTag: snap quad edges to the full-resolution gradients: auto (when "
                   "decimating), true, false")
       ->check(CLI::IsMember({"auto", "true", "false"}))
       ->capture_default_str();
-  sub->add_option("--decode-sharpening", args->decode_sharpening, "AprilTag decoding sharpening")
+  sub->add_option("--decode-sharpening", args->tag.decode_sharpening,
+                  "AprilTag decoding sharpening")
       ->capture_default_str();
-  sub->add_option("--max-hamming", args->max_hamming, "AprilTag: bit errors corrected")
+  sub->add_option("--max-hamming", args->tag.max_hamming, "AprilTag: bit errors corrected")
       ->capture_default_str();
-  sub->add_option("--min-decision-margin", args->min_decision_margin,
+  sub->add_option("--min-decision-margin", args->tag.min_decision_margin,
                   "AprilTag: smallest decision margin kept")
       ->capture_default_str();
-  sub->add_option("--detect-long-side", args->detect_long_side,
+  sub->add_option("--detect-long-side", args->rect.detect_long_side,
                   "rectangles: images with a longer side >= 2x this are detected on a level "
                   "reduced by an integer factor to >= this [px], corners refined at full "
                   "resolution; 0 = full resolution")

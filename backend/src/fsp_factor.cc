@@ -139,8 +139,8 @@ FspFactor::FspFactor(const Corners& corners_px, const Mat3& K, const Rigid3& T_B
   FSP_CHECK(K_.row(2).isApprox(Eigen::RowVector3d(0.0, 0.0, 1.0)));
 }
 
-// The paper's FSP observation model in homogeneous form (DESIGN.md §3; formula and frames in
-// fsp_factor.h).
+// The paper's FSP observation model in homogeneous form (backend/README.md, "Landmark models";
+// formula and frames in fsp_factor.h).
 bool FspFactor::Evaluate(double const* const* parameters, double* residuals,
                          double** jacobians) const {
   const Rigid3 T_W_Bc = PoseFromBlock(parameters[0]);

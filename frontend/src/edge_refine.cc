@@ -328,6 +328,16 @@ cv::Mat EdgeRefineImage(const cv::Mat& gray) {
   return smooth;
 }
 
+bool SmoothForEdgeRefine(const cv::Mat& gray, cv::Rect region, cv::Mat* smooth) {
+  FSP_CHECK(gray.type() == CV_8UC1 && !gray.empty());
+  if (smooth->size() != gray.size() || smooth->type() != CV_8UC1)
+    smooth->create(gray.size(), CV_8UC1);
+  region &= cv::Rect(0, 0, gray.cols, gray.rows);
+  if (region.area() <= 0) return false;
+  cv::GaussianBlur(gray(region), (*smooth)(region), cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
+  return true;
+}
+
 EdgeRefinement RefineCornersOnEdges(const cv::Mat& smooth, const PinholeRadtan* camera,
                                     const Corners& corners_undistorted, double min_gradient,
                                     const RectDetectorOptions& options,

@@ -413,10 +413,7 @@ struct ObjectTracker::Impl {
     // on a sub-matrix reads the real neighbours outside it, so the values equal a whole-frame
     // EdgeRefineImage there).
     auto smooth_near = [&](const Corners& q, double search) {
-      const cv::Rect r = Box(q, search + 8.0);
-      if (r.width <= 0 || r.height <= 0) return false;
-      cv::GaussianBlur(gray(r), smooth(r), cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
-      return true;
+      return SmoothForEdgeRefine(gray, Box(q, search + 8.0), &smooth);
     };
     Corners start = c;
     if (coarse) {
@@ -481,7 +478,6 @@ struct ObjectTracker::Impl {
         ob->model_desc = desc;
       }
       // Edge polarity per side, so that each side stays on its own edge later.
-      if (smooth.size() != gray.size()) smooth.create(gray.size(), CV_8U);
       ob->side_sign = {0, 0, 0, 0};
       EdgeRefinement e;
       if (Refine(*ob, gray, corners, false, &e)) ob->side_sign = e.side_sign;
@@ -699,7 +695,6 @@ struct ObjectTracker::Impl {
     for (auto& [id, ob] : objects)
       if (ob.active) act.push_back(&ob);
     if (!act.empty() && !prev_pyr.empty()) {
-      if (smooth.size() != gray.size()) smooth.create(gray.size(), CV_8U);
       // Predictions: the caller's corners, else constant velocity of the homography
       // (H_pred = M H with M = H H_prev^-1, the last frame-to-frame motion in the image).
       std::vector<Mat3> H_pred(act.size());

@@ -155,16 +155,16 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   return res;
 }
 
-// A camera model for an image scaled by 1/s (s = full px per level px) in x and y: pixel centres
+// A camera model for an image scaled by 1/s (s = full px per level px): pixel centres
 // map as u_level = (u + 0.5) / s - 0.5; the distortion acts on normalised coordinates and stays.
-PinholeRadtan ScaledCamera(const PinholeRadtan& c, int cols, int rows, double sx, double sy) {
+PinholeRadtan ScaledCamera(const PinholeRadtan& c, int cols, int rows, double s) {
   PinholeRadtan l = c;
   l.width = cols;
   l.height = rows;
-  l.fx = c.fx / sx;
-  l.fy = c.fy / sy;
-  l.cx = (c.cx + 0.5) / sx - 0.5;
-  l.cy = (c.cy + 0.5) / sy - 0.5;
+  l.fx = c.fx / s;
+  l.fy = c.fy / s;
+  l.cx = (c.cx + 0.5) / s - 0.5;
+  l.cy = (c.cy + 0.5) / s - 0.5;
   return l;
 }
 
@@ -212,9 +212,9 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   // The last cols % k columns and rows % k rows are left out so that the factor is exact.
   cv::resize(gray(cv::Rect(0, 0, gray.cols / k * k, gray.rows / k * k)), level,
              cv::Size(gray.cols / k, gray.rows / k), 0.0, 0.0, cv::INTER_AREA);
-  const double sx = k, sy = k;
+  const double s = k;
   std::optional<PinholeRadtan> level_cam;
-  if (camera) level_cam = ScaledCamera(*camera, level.cols, level.rows, sx, sy);
+  if (camera) level_cam = ScaledCamera(*camera, level.cols, level.rows, s);
   const double t_pyramid = sw.Lap();
   cv::Mat level_smooth;
   Result res = DetectLevel(o, level, level_cam ? &*level_cam : nullptr, gravity_C, &level_smooth);
@@ -225,32 +225,30 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   // the level, a search wide enough for the level's corner error scaled up.
   const PinholeRadtan* cam = camera && camera->HasDistortion() ? camera : nullptr;
   RectDetectorOptions fo = o;
-  fo.search_px = std::max(o.search_px, 1.5 * std::max(sx, sy));
+  fo.search_px = std::max(o.search_px, 1.5 * s);
   fo.search_step_px = std::min(fo.search_px, o.search_step_px);
-  cv::Mat smooth(gray.size(), CV_8UC1);
+  cv::Mat smooth;
   const int pad = static_cast<int>(std::ceil(fo.search_px)) + 4;
-  const cv::Rect whole(0, 0, gray.cols, gray.rows);
   for (Detection& d : res.detections) {
     Corners full_px, full_und;
     for (int i = 0; i < 4; ++i) {
       full_px[i] =
-          Vec2((d.corners_px[i].x() + 0.5) * sx - 0.5, (d.corners_px[i].y() + 0.5) * sy - 0.5);
+          Vec2((d.corners_px[i].x() + 0.5) * s - 0.5, (d.corners_px[i].y() + 0.5) * s - 0.5);
       full_und[i] = camera ? camera->UndistortPixel(full_px[i]) : full_px[i];
     }
     for (int i = 0; i < 4; ++i) {
       const Vec2& a = full_px[(i + 3) % 4];
       const Vec2& b = full_px[i];
-      cv::Rect r(cv::Point(static_cast<int>(std::floor(std::min(a.x(), b.x()))) - pad,
-                           static_cast<int>(std::floor(std::min(a.y(), b.y()))) - pad),
-                 cv::Point(static_cast<int>(std::ceil(std::max(a.x(), b.x()))) + pad + 1,
-                           static_cast<int>(std::ceil(std::max(a.y(), b.y()))) + pad + 1));
-      r &= whole;
-      if (r.area() > 0)
-        cv::GaussianBlur(gray(r), smooth(r), cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
+      SmoothForEdgeRefine(
+          gray,
+          cv::Rect(cv::Point(static_cast<int>(std::floor(std::min(a.x(), b.x()))) - pad,
+                             static_cast<int>(std::floor(std::min(a.y(), b.y()))) - pad),
+                   cv::Point(static_cast<int>(std::ceil(std::max(a.x(), b.x()))) + pad + 1,
+                             static_cast<int>(std::ceil(std::max(a.y(), b.y()))) + pad + 1)),
+          &smooth);
     }
-    const EdgeRefinement ref =
-        RefineCornersOnEdges(smooth, cam, full_und, res.canny_low / 8.0 / std::max(sx, sy), fo,
-                             SidePolarity(level_smooth, d.corners_px));
+    const EdgeRefinement ref = RefineCornersOnEdges(smooth, cam, full_und, res.canny_low / 8.0 / s,
+                                                    fo, SidePolarity(level_smooth, d.corners_px));
     if (ref.ok) full_und = ref.corners_undistorted;
     d.corners_undistorted = full_und;
     for (int i = 0; i < 4; ++i)

@@ -119,7 +119,7 @@ TEST(RunEndToEnd, WindowModeWithOnePixelNoise) {
   ASSERT_TRUE(r.metrics.trajectory.has_value());
   ASSERT_TRUE(r.metrics.objects.has_value());
   Print("window, 1 px", r);
-  // Outputs as CONTRACT.md names them.
+  // Outputs as the README ("Commands", Files) names them.
   EXPECT_EQ(r.run["frames"].get<int>(), 200);
   EXPECT_GT(r.run["keyframes"].get<int>(), 0);
   EXPECT_TRUE(r.run["stage_ms"]["backend"].contains("p90"));

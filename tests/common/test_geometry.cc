@@ -46,7 +46,8 @@ TEST(Conventions, RpyOrderIsZyx) {
                         Eigen::AngleAxisd(p, Vec3::UnitY()).toRotationMatrix() *
                         Eigen::AngleAxisd(r, Vec3::UnitX()).toRotationMatrix();
   EXPECT_TRUE(RotFromRpy(r, p, y).isApprox(expected, 1e-12));
-  // CONTRACT.md: a door on a wall facing -y, upright, is rpy_deg [90, 0, 0]: x along the width
+  // The scene file's convention: a door on a wall facing -y, upright, is rpy_deg [90, 0, 0]: x
+  // along the width
   // (+x), y (height) up, z = x × y pointing out of the face towards -y.
   const Mat3 R_W_O = RotFromRpy(kPi / 2, 0, 0);
   EXPECT_TRUE((R_W_O * Vec3::UnitY()).isApprox(Vec3::UnitZ(), 1e-12));

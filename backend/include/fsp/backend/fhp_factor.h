@@ -1,6 +1,6 @@
 // Ceres reprojection factor of one corner of a Framed-Homogeneous-Points rectangle (the FSP paper's
-// baseline, DESIGN.md §3): every corner is an independent anchored inverse-depth point, 2
-// residuals.
+// baseline, backend/README.md, "Landmark models"): every corner is an independent anchored
+// inverse-depth point, 2 residuals.
 //
 //   h = R_C_W ( ω (p_W_F − p_W_C) + R_W_F (u, v, 1) ),   z = π(K h),   e = (z − z^obs) / σ_px
 //

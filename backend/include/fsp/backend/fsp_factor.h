@@ -1,5 +1,6 @@
-// Ceres reprojection factor of a Framed-Structural-Points rectangle (DESIGN.md §3; the paper's FSP
-// observation model), one factor per object observation: 4 corners -> 8 residuals.
+// Ceres reprojection factor of a Framed-Structural-Points rectangle (backend/README.md, "Landmark
+// models"; the paper's FSP observation model), one factor per object observation: 4 corners -> 8
+// residuals.
 //
 //   a_j = r + R_F_O s̄_j                                   (corner j in F, scale 1/ω;
 //   fsp_landmark.h) h_j = R_C_W ( ω (p_W_F − p_W_C) + R_W_F a_j )          (homogeneous: = ω

@@ -1,5 +1,6 @@
 // Rectangle landmarks for the back end: Framed Structural Points (FSP, the paper's representation,
-// 8 DoF) and Framed Homogeneous Points (FHP, the paper's baseline, 12 DoF). DESIGN.md §3.
+// 8 DoF) and Framed Homogeneous Points (FHP, the paper's baseline, 12 DoF). backend/README.md,
+// "Landmark models".
 //
 // Frames: W world, F anchor = the CAMERA frame of the keyframe where the object was initialised
 // (T_W_F = T_W_B(anchor) * T_B_C), O object (x along the width, y along the height, z = x × y).

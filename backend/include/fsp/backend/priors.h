@@ -9,9 +9,9 @@
 
 namespace fsp::backend {
 
-// Prior on a body pose block (DESIGN.md §4, gauge): r = [ (p − p0) / σ_p ;  S · Log(R R0ᵀ) ] with
-// the rotation error in the WORLD frame (left), so its z component is the yaw error and x, y are
-// roll and pitch about world axes: S = diag(1/σ_rp, 1/σ_rp, 1/σ_yaw). Block: pose[7]. Ambient
+// Prior on a body pose block (backend/README.md, "Gauge"): r = [ (p − p0) / σ_p ;  S · Log(R R0ᵀ) ]
+// with the rotation error in the WORLD frame (left), so its z component is the yaw error and x, y
+// are roll and pitch about world axes: S = diag(1/σ_rp, 1/σ_rp, 1/σ_yaw). Block: pose[7]. Ambient
 // Jacobian through LeftRotationJacobianWrtQuat (fsp_landmark.h), consistent with any quaternion
 // manifold.
 class PosePrior final : public ceres::SizedCostFunction<6, 7> {

@@ -1,7 +1,7 @@
 // Single-view initialisation of an FSP landmark from the four image corners of a rectangle,
 // anchored at the observing camera (F = C). Zhang & He, "Whiteboard scanning and image enhancement"
 // (2007), the rectangle / aspect-ratio part, with the calibrated K (never the focal length Zhang-He
-// can estimate). DESIGN.md §3.
+// can estimate). backend/README.md, "Landmark models".
 //
 // With homogeneous undistorted pixels m_i (s1..s4 order) and m̃_i = K⁻¹ m_i, the corners are P_i =
 // λ_i m̃_i. A parallelogram has P1 + P3 = P2 + P4; fixing λ1 = 1 (s1 at unit depth: exactly the FSP
@@ -20,7 +20,7 @@
 // Near fronto-parallel views (small or far targets) the tilt of the plane is ill-conditioned and
 // noise can flip the normal. For objects known to be vertical, pass the "up" direction (−gravity)
 // in F: the initial R_F_O is then replaced by the nearest rotation whose y axis (the height edge,
-// which points up for the DESIGN.md corner order) is exactly "up" — x from n2 made horizontal — and
+// which points up for the README's corner order) is exactly "up" — x from n2 made horizontal — and
 // the refinement adds a soft prior |y_O − up_F| / σ_up. The tilt about the vertical axis stays as
 // the image says; later views decide the rest.
 #pragma once

@@ -1,4 +1,4 @@
-// Per-frame corner observations as csv (CONTRACT.md):
+// Per-frame corner observations as csv (README, "Commands", Files):
 //   observations_gt.csv: t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4,fully_visible   (rendered ground
 //   truth) observations.csv:    t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4                 (what a
 //   run's front end saw)

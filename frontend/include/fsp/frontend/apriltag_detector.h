@@ -1,9 +1,9 @@
 // AprilTag detector (libapriltag 3) returning the same Detection type as the rectangle detector.
 //
 // Corners: libapriltag's det->p[0..3] go counter-clockwise on screen starting at the tag's own
-// bottom-left corner, which for an upright tag is s1..s4 (DESIGN.md §2), so the tag's decoded
-// orientation fixes the order (not the image position). libapriltag's pixel coordinates put the
-// centre of pixel (0,0) at (0.5, 0.5); 0.5 is subtracted so integer = pixel centre (OpenCV).
+// bottom-left corner, which for an upright tag is s1..s4 (README, "Conventions"), so the tag's
+// decoded orientation fixes the order (not the image position). libapriltag's pixel coordinates put
+// the centre of pixel (0,0) at (0.5, 0.5); 0.5 is subtracted so integer = pixel centre (OpenCV).
 // tag_id = the decoded id; object_class = kTag; score = decision margin / (decision margin + 50),
 // in [0, 1). corners_undistorted are the corners undistorted with the calibration (if given): the
 // quad fit runs on the distorted image, so the undistorted corners of a strongly distorted, large

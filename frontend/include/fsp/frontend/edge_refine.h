@@ -24,6 +24,12 @@ namespace fsp::frontend {
 // detector's own smoothing). Build it once per frame and refine any number of quads on it.
 cv::Mat EdgeRefineImage(const cv::Mat& gray);
 
+// The same image built only inside `region` (clipped to the image) of `*smooth`, which is allocated
+// at the grey image's size when it is not: the filter reads the real neighbours outside the region,
+// so the values there equal EdgeRefineImage's. For refining a few quads on a large image, whose
+// whole-frame smoothing would cost more than the refinement. Returns false for an empty region.
+bool SmoothForEdgeRefine(const cv::Mat& gray, cv::Rect region, cv::Mat* smooth);
+
 struct EdgeRefinement {
   bool ok = false;
   Corners corners_undistorted;  // refined corners, same order as the input (undistorted px)

@@ -1,8 +1,8 @@
-// The scene file of `fsp render` (CONTRACT.md "Scene file"): camera, mount, IMU noise, room,
-// rectangles, trajectory, noise, duration; parsed and validated here, then turned into renderer
-// quads.
+// The scene file of `fsp render` (documented with assets/scenes/default_room.yaml): camera, mount,
+// IMU noise, room, rectangles, trajectory, noise, duration; parsed and validated here, then turned
+// into renderer quads.
 //
-// Extensions beyond CONTRACT.md (all optional):
+// Optional keys (all optional):
 //   imu:        gyroscope_bias: [3], accelerometer_bias: [3]   initial biases (rad/s, m/s^2),
 //   default 0 objects[i]: tag_id (required for texture tag), texture
 //   (wall|floor|ceiling|wood|glass|poster|cabinet|
@@ -29,9 +29,9 @@
 
 namespace fsp::sim {
 
-// One rectangle of the scene. Corners s1..s4 in W (DESIGN.md: s1 = (0,0,0), s2 = (w,0,0), s3 =
-// (w,h,0), s4 = (0,h,0) in O; x along the width, y along the height, z = x cross y out of the
-// visible face).
+// One rectangle of the scene. Corners s1..s4 in W (README, "Conventions": s1 = (0,0,0), s2 =
+// (w,0,0), s3 = (w,h,0), s4 = (0,h,0) in O; x along the width, y along the height, z = x cross y
+// out of the visible face).
 struct SceneObject {
   int id = -1;             // object id (>= 0, unique in the scene)
   std::string class_name;  // as written in the scene: door, window, cabinet, poster, painting, tag
