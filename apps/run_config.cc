@@ -23,9 +23,11 @@ namespace {
 using backend::EstimatorMode;
 using backend::LandmarkType;
 using backend::RobustLossOptions;
+using backend::WindowBoundary;
 
-using FieldRef = std::variant<int*, double*, bool*, uint32_t*, std::string*, EstimatorMode*,
-                              LandmarkType*, RobustLossOptions::Type*, std::optional<double>*>;
+using FieldRef =
+    std::variant<int*, double*, bool*, uint32_t*, std::string*, EstimatorMode*, LandmarkType*,
+                 RobustLossOptions::Type*, WindowBoundary*, std::optional<double>*>;
 
 // Accepted numeric range of a field: lo < x (lo_open) or lo <= x, and x <= hi.
 struct Range {
@@ -67,6 +69,17 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.min_depth_m", &e.min_depth_m, kPositive},
       {"estimator.max_depth_m", &e.max_depth_m, kPositive},
       {"estimator.reinit_gate_px", &e.reinit_gate_px, kNonNegative},
+      {"estimator.global.enabled", &e.global.enabled, kAny},
+      {"estimator.global.every_keyframes", &e.global.every_keyframes, kAtLeastOne},
+      {"estimator.global.max_iterations", &e.global.max_iterations, kAtLeastOne},
+      {"estimator.global.final_iterations", &e.global.final_iterations, kAtLeastOne},
+      {"estimator.global.boundary", &e.global.boundary, kAny},
+      {"estimator.global.loop_direct_px", &e.global.loop_direct_px, kNonNegative},
+      {"estimator.global.loop_accept_px", &e.global.loop_accept_px, kNonNegative},
+      {"estimator.global.budget_m", &e.global.budget_m, kNonNegative},
+      {"estimator.global.budget_per_m", &e.global.budget_per_m, kNonNegative},
+      {"estimator.global.budget_yaw_deg", &e.global.budget_yaw_deg, kNonNegative},
+      {"estimator.global.budget_yaw_per_m", &e.global.budget_yaw_per_m, kNonNegative},
       {"estimator.faults.max_imu_gap_s", &e.faults.max_imu_gap_s, kPositive},
       {"estimator.faults.gap_max_acc", &e.faults.gap_max_acc, kPositive},
       {"estimator.faults.gap_max_rate", &e.faults.gap_max_rate, kPositive},
@@ -226,6 +239,8 @@ const std::vector<std::pair<EstimatorMode, const char*>> kModes = {
     {EstimatorMode::kWindow, "window"}, {EstimatorMode::kBatch, "batch"}};
 const std::vector<std::pair<LandmarkType, const char*>> kLandmarks = {{LandmarkType::kFsp, "fsp"},
                                                                       {LandmarkType::kFhp, "fhp"}};
+const std::vector<std::pair<WindowBoundary, const char*>> kBoundaries = {
+    {WindowBoundary::kPrior, "prior"}, {WindowBoundary::kFixed, "fixed"}};
 const std::vector<std::pair<RobustLossOptions::Type, const char*>> kLosses = {
     {RobustLossOptions::Type::kNone, "none"},
     {RobustLossOptions::Type::kHuber, "huber"},
@@ -237,6 +252,8 @@ const std::vector<std::pair<E, const char*>>& EnumNames() {
     return kModes;
   } else if constexpr (std::is_same_v<E, LandmarkType>) {
     return kLandmarks;
+  } else if constexpr (std::is_same_v<E, WindowBoundary>) {
+    return kBoundaries;
   } else {
     return kLosses;
   }

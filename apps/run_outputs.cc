@@ -110,6 +110,20 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                     {"marginalization_failures", s.marginalization_failures},
                     {"batch_solve_ms", s.batch_solve_ms},
                     {"final_cost", s.final_cost}};
+  double global_ms_total = 0.0, global_ms_max = 0.0;
+  for (double ms : s.global_ms) {
+    global_ms_total += ms;
+    global_ms_max = std::max(global_ms_max, ms);
+  }
+  j["global"] = {{"solves", s.global_solves},
+                 {"rejected", s.global_rejected},
+                 {"iterations", s.global_iterations},
+                 {"ms_total", global_ms_total},
+                 {"ms_max", global_ms_max},
+                 {"loops_closed", s.loops_closed},
+                 {"loops_prealigned", s.loops_prealigned},
+                 {"loops_rejected", s.loops_rejected},
+                 {"objects_reinitialized", s.objects_reinitialized}};
   j["faults"] = {{"imu_gaps", s.imu_gaps},
                  {"imu_gap_max_s", s.imu_gap_max_s},
                  {"imu_gap_links", s.imu_gap_links},

@@ -7,14 +7,12 @@
 
 namespace fsp::test {
 
-namespace {
 std::string Slurp(const std::filesystem::path& p) {
-  std::ifstream in(p);
+  std::ifstream in(p, std::ios::binary);
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
 }
-}  // namespace
 
 CommandResult RunFsp(const std::string& args) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();

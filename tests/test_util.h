@@ -42,4 +42,7 @@ struct CommandResult {
 // Runs the built `fsp` binary with ARGS (a shell-quoted string), capturing stdout and stderr.
 CommandResult RunFsp(const std::string& args);
 
+// The bytes of a file (empty when it cannot be read).
+std::string Slurp(const std::filesystem::path& p);
+
 }  // namespace fsp::test

@@ -247,6 +247,14 @@ void CollectResidualBlocks(const ceres::Problem& problem, const std::vector<doub
   }
 }
 
+std::shared_ptr<const LinearPrior> Recentered(const LinearPrior& prior) {
+  auto out = std::make_shared<LinearPrior>(prior);
+  for (size_t b = 0; b < out->blocks.size(); ++b)
+    out->x0[b] = Eigen::Map<const Eigen::VectorXd>(out->blocks[b], out->ambient_sizes[b]);
+  out->r0.setZero();
+  return out;
+}
+
 MarginalizationPriorFactor::MarginalizationPriorFactor(std::shared_ptr<const LinearPrior> prior)
     : prior_(std::move(prior)) {
   FSP_CHECK(prior_ != nullptr);

@@ -24,6 +24,7 @@
 #include "fsp/eval/evaluate.h"
 #include "fsp/sim/scene.h"
 #include "fsp/sim/sequence_writer.h"
+#include "room_loop.h"
 #include "test_util.h"
 
 namespace fsp::apps {
@@ -31,82 +32,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const char* kScene = R"(
-camera: {width: 320, height: 240, fx: 229.0, fy: 229.0, cx: 159.5, cy: 119.5, rate_hz: 20}
-T_B_C: [0, 0, 1, 0.05,  -1, 0, 0, 0.0,  0, -1, 0, 0.0,  0, 0, 0, 1]
-imu: {rate_hz: 200, gyroscope_noise_density: 1.7e-4, accelerometer_noise_density: 2.0e-3,
-      gyroscope_random_walk: 1.9e-5, accelerometer_random_walk: 3.0e-3,
-      gyroscope_bias: [0.002, -0.001, 0.0015], accelerometer_bias: [0.03, -0.02, 0.04]}
-room: {min: [0, 0, 0], max: [10, 8, 3]}
-objects:
-  - {id: 1, class: door, corners: [[1.9, 0, 0], [1.0, 0, 0], [1.0, 0, 2.1], [1.9, 0, 2.1]]}
-  - {id: 2, class: window, position: [4.6, 0, 1.0], rpy_deg: [90, 0, 180], width: 1.4, height: 1.2}
-  - {id: 3, class: window, position: [7.2, 0, 1.0], rpy_deg: [90, 0, 180], width: 1.4, height: 1.2}
-  - {id: 4, class: poster, position: [9.2, 0, 1.1], rpy_deg: [90, 0, 180], width: 0.8, height: 1.0}
-  - {id: 10, class: window, position: [0, 1.5, 1.0], rpy_deg: [90, 0, 90], width: 1.5, height: 1.2}
-  - {id: 11, class: poster, position: [0, 3.9, 1.2], rpy_deg: [90, 0, 90], width: 0.7, height: 1.0}
-  - {id: 12, class: door, position: [0, 6.4, 0], rpy_deg: [90, 0, 90], width: 0.9, height: 2.1}
-  - {id: 5, class: cabinet, corners: [[0.8, 8, 0], [2.0, 8, 0], [2.0, 8, 1.8], [0.8, 8, 1.8]]}
-  - {id: 6, class: painting, position: [2.8, 8, 1.3], rpy_deg: [90, 0, 0], width: 1.2, height: 0.8}
-  - {id: 7, class: window, position: [4.5, 8, 1.0], rpy_deg: [90, 0, 0], width: 1.4, height: 1.2}
-  - {id: 8, class: poster, position: [6.8, 8, 1.2], rpy_deg: [90, 0, 0], width: 0.8, height: 1.0}
-  - {id: 20, class: door, position: [10, 1.2, 0], rpy_deg: [90, 0, -90], width: 0.9, height: 2.1}
-  - {id: 21, class: window, position: [10, 3.6, 1.0], rpy_deg: [90, 0, -90], width: 1.5, height: 1.2}
-  - {id: 22, class: poster, position: [10, 6.0, 1.2], rpy_deg: [90, 0, -90], width: 0.8, height: 1.0}
-trajectory:
-  waypoints:
-    - [0, 5.0, 4.0, 1.3, -90]
-    - [2, 5.0, 4.0, 1.3, -90]
-    - [4, 5.2, 3.4, 1.4, -120]
-    - [6, 4.6, 3.0, 1.3, -150]
-    - [8, 4.0, 3.4, 1.5, 180]
-    - [10, 4.0, 4.2, 1.3, 150]
-    - [12, 4.4, 4.8, 1.4, 120]
-    - [14, 5.0, 5.0, 1.3, 90]
-    - [16, 5.6, 4.8, 1.5, 60]
-    - [18, 6.0, 4.2, 1.3, 20]
-    - [20, 6.0, 3.6, 1.4, 0]
-    - [22, 5.6, 3.2, 1.3, -40]
-    - [24, 5.0, 3.0, 1.4, -80]
-    - [26, 4.6, 3.2, 1.3, -110]
-    - [28, 4.4, 3.6, 1.4, -140]
-noise: {pixel_sigma: 1.0, seed: 4}
-duration_s: 26
-)";
-
-// The rendered sequence, once per test process (CTest runs the tests as parallel processes).
 const fs::path& Sequence() {
-  static const fs::path dir = [] {
-    const fs::path d =
-        fs::temp_directory_path() / "fsp_tests" / ("faults_sequence_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    sim::SequenceOptions options;
-    options.images = false;
-    options.video = false;
-    options.top_view = false;
-    options.progress = false;
-    const sim::Scene scene = sim::ParseScene(kScene, "faults_scene.yaml", ".");
-    sim::WriteSequence(scene, d.string(), options);
-    // Without images the sequence has no cam0/data.csv: list the frames (ground-truth corners
-    // need no pixels; the reader decodes the first image only, so one blank image and empty files).
-    const fs::path cam0 = d / "mav0" / "cam0";
-    fs::create_directories(cam0 / "data");
-    std::ofstream csv(cam0 / "data.csv");
-    csv << "#timestamp [ns],filename\n";
-    bool first = true;
-    for (const int64_t t_ns : sim::FrameTimes(scene)) {
-      const std::string name = std::to_string(t_ns) + ".png";
-      csv << t_ns << "," << name << "\n";
-      if (first)
-        cv::imwrite((cam0 / "data" / name).string(),
-                    cv::Mat(scene.camera.height, scene.camera.width, CV_8UC1, cv::Scalar(128)));
-      else
-        std::ofstream(cam0 / "data" / name);
-      first = false;
-    }
-    return d;
-  }();
-  return dir;
+  return test::RoomLoopSequence();
 }
 
 // Copies the sequence into DIR, keeping only the rows of FILE (relative path) for which KEEP(t_ns)
@@ -166,7 +93,7 @@ void ExpectCompleteRun(const FaultRun& r, size_t frames) {
   EXPECT_GT(r.ate, 0.0);
 }
 
-constexpr size_t kFrames = 520;  // 26 s at 20 Hz
+constexpr size_t kFrames = test::kRoomLoopFrames;
 
 // Without faults: the reference for the ATE of the faulty runs, and no fault is reported.
 TEST(Faults, NoFaultNoCounter) {
@@ -175,7 +102,7 @@ TEST(Faults, NoFaultNoCounter) {
   for (const char* k : {"imu_gaps", "frame_gaps", "blind_stretches", "divergences", "resets"})
     EXPECT_EQ(r.faults[k].get<int>(), 0) << k;
   EXPECT_TRUE(r.faults["warnings"].empty());
-  EXPECT_LT(r.ate, 0.2);  // measured 11.9 cm
+  EXPECT_LT(r.ate, 0.045);  // measured 2.8 cm (11.9 cm before the global step)
 }
 
 // 3 s without IMU samples (as a driver that stalls): the constant-velocity motion prior bridges
@@ -190,8 +117,9 @@ TEST(Faults, ImuGapOfThreeSeconds) {
   EXPECT_GT(r.faults["imu_gap_links"].get<int>(), 0);
   EXPECT_NE(r.command.err.find("warning: t=9."), std::string::npos) << r.command.err;
   EXPECT_EQ(r.faults["divergences"].get<int>(), 0);
-  // Measured 14.9 cm (11.9 without the gap); before, the run aborted.
-  EXPECT_LT(r.ate, 0.3);
+  // Measured 3.3 cm (2.8 without the gap; 14.9 cm before the global step); before, the run
+  // aborted.
+  EXPECT_LT(r.ate, 0.05);  // measured 3.3 cm (14.9 cm before the global step)
 }
 
 // 2 s of dropped frames (the IMU continues): the IMU preintegration bridges them.
@@ -205,7 +133,7 @@ TEST(Faults, TwoSecondsOfDroppedFrames) {
   EXPECT_NEAR(r.faults["frame_gap_max_s"].get<double>(), 2.05, 0.01);
   EXPECT_NE(r.command.err.find("frame gap"), std::string::npos) << r.command.err;
   EXPECT_EQ(r.faults["blind_stretches"].get<int>(), 0);  // objects were in view around the gap
-  EXPECT_LT(r.ate, 0.25);                                // measured 13.0 cm
+  EXPECT_LT(r.ate, 0.045);  // measured 3.0 cm (13.0 cm before the global step)
 }
 
 // 10 s with no object in view (every observation removed): IMU dead reckoning, reported.
@@ -217,8 +145,9 @@ TEST(Faults, TenSecondsWithNothingInView) {
   EXPECT_EQ(r.faults["blind_stretches"].get<int>(), 1);
   EXPECT_NEAR(r.faults["blind_max_s"].get<double>(), 10.05, 0.01);
   EXPECT_NE(r.command.err.find("no object in view"), std::string::npos) << r.command.err;
-  // Measured 72.8 cm: 10 s of dead reckoning drift, which the window cannot undo afterwards.
-  EXPECT_LT(r.ate, 1.2);
+  // Measured 2.1 cm: the objects seen again after the 10 s of dead reckoning close their loops
+  // in the global step (72.8 cm before it: the window alone cannot undo the drift).
+  EXPECT_LT(r.ate, 0.035);
 }
 
 // Divergence detection and restart: an accelerometer-bias bound below what any solve gives makes

@@ -483,5 +483,37 @@ TEST(Marginalization, PriorFactorJacobians) {
   EXPECT_LT((r - ms.prior->r0).norm(), 1e-15);
 }
 
+// A re-centred prior (after a global solve moved the window): zero residual at the blocks' new
+// values, the same information (J_p) and so the same curvature around them; the original prior
+// still pulls towards where it was linearised.
+TEST(Marginalization, RecenteredPriorIsZeroAtTheNewValuesWithTheSameInformation) {
+  Window w(3);
+  std::vector<ResidualBlockInput> touching;
+  std::unordered_map<const double*, const ceres::Manifold*> manifolds;
+  CollectResidualBlocks(*w.problem, {w.kf[0].pose, w.kf[0].speed_bias}, &touching, &manifolds);
+  const MarginalizationSummary ms =
+      Marginalize(touching, {w.kf[0].pose, w.kf[0].speed_bias}, manifolds);
+  ASSERT_TRUE(ms.success) << ms.reason;
+  // Move the kept blocks (a translation of every pose, a velocity change).
+  for (double* p : ms.prior->blocks) {
+    const bool pose = manifolds.count(p) && manifolds.at(p);
+    if (pose) {
+      p[0] += 0.4;
+      p[2] -= 0.2;
+    } else {
+      p[0] += 0.1;
+    }
+  }
+  const std::shared_ptr<const LinearPrior> re = Recentered(*ms.prior);
+  ASSERT_EQ(re->blocks, ms.prior->blocks);
+  EXPECT_EQ((re->J - ms.prior->J).norm(), 0.0);
+  Eigen::VectorXd r_old(ms.prior->r0.size()), r_new(re->r0.size());
+  ASSERT_TRUE(MarginalizationPriorFactor(ms.prior).Evaluate(ms.prior->blocks.data(), r_old.data(),
+                                                            nullptr));
+  ASSERT_TRUE(MarginalizationPriorFactor(re).Evaluate(re->blocks.data(), r_new.data(), nullptr));
+  EXPECT_LT(r_new.norm(), 1e-12);
+  EXPECT_GT(r_old.norm(), 1.0);  // the old prior pulls back
+}
+
 }  // namespace
 }  // namespace fsp::backend

@@ -15,13 +15,6 @@ int CountLines(const std::string& text) {
   return static_cast<int>(std::count(text.begin(), text.end(), '\n'));
 }
 
-std::string Slurp(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 TEST(DetectCli, WritesCsvAndDrawnPng) {
   const auto dir = ScratchDir();
   const SyntheticFrame fr = MakeSyntheticFrame(4);
@@ -31,7 +24,7 @@ TEST(DetectCli, WritesCsvAndDrawnPng) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(CountLines(r.out), 1) << r.out;  // one summary line per image
   EXPECT_NE(r.out.find("4 rectangles"), std::string::npos) << r.out;
-  const std::string csv = Slurp(dir / "out" / "detections.csv");
+  const std::string csv = test::Slurp(dir / "out" / "detections.csv");
   EXPECT_EQ(csv.rfind("image,tag_id,class,u1,v1,u2,v2,u3,v3,u4,v4,score\n", 0), 0u) << csv;
   EXPECT_EQ(CountLines(csv), 5) << csv;
   EXPECT_NE(csv.find("frame.png,-1,"), std::string::npos);

@@ -51,18 +51,11 @@ fs::path WriteScene(const fs::path& dir, const std::string& name, const std::str
   return p;
 }
 
-std::string Slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 // Relative path -> contents of every file under DIR.
 std::map<std::string, std::string> Tree(const fs::path& dir) {
   std::map<std::string, std::string> files;
   for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    if (e.is_regular_file()) files[fs::relative(e.path(), dir).string()] = Slurp(e.path());
+    if (e.is_regular_file()) files[fs::relative(e.path(), dir).string()] = test::Slurp(e.path());
   }
   return files;
 }
@@ -154,7 +147,7 @@ TEST(RenderCli, WritesAReadableSequenceWithConsistentGroundTruth) {
   }
 
   // Objects and corner rows: ids, sizes, projections of the ground-truth corners.
-  const nlohmann::json objects = nlohmann::json::parse(Slurp(seq / "objects_gt.json"));
+  const nlohmann::json objects = nlohmann::json::parse(test::Slurp(seq / "objects_gt.json"));
   ASSERT_EQ(objects["objects"].size(), 4u);
   EXPECT_EQ(objects["objects"][2]["class"], "tag");
   EXPECT_NEAR(objects["objects"][0]["width"].get<double>(), 0.9, 1e-12);

@@ -155,6 +155,10 @@ void System::Finish() {
   impl_->estimator.Finish();
 }
 
+std::vector<StampedPose> System::CausalTrajectory() const {
+  return impl_->estimator.CausalTrajectory();
+}
+
 std::vector<StampedPose> System::Trajectory() const {
   return impl_->estimator.Trajectory();
 }

@@ -82,6 +82,41 @@ struct FaultOptions {
   bool Check(std::string* why) const;
 };
 
+// Window mode's global step (backend/README.md, "Global step and loops"): a visual-inertial bundle
+// adjustment over every keyframe and object, beside the window, so that an object that returns
+// closes a loop (it keeps its identity) and scale and biases come from the whole history.
+enum class WindowBoundary {
+  kPrior,  // the window's dense marginalisation prior, re-centred at every global solve
+  kFixed,  // no prior: the keyframe before the window is held at its estimate (ORB-SLAM3 style)
+};
+
+struct GlobalOptions {
+  bool enabled = true;
+  // A global solve every this many keyframes (and whenever a loop closes) [keyframes].
+  int every_keyframes = 10;
+  // Solver iterations of a global solve during the run, and of the final one (Finish).
+  int max_iterations = 10;
+  int final_iterations = 50;
+  WindowBoundary boundary = WindowBoundary::kPrior;
+  // A returning object (no window keyframe saw it) predicted within this RMS error of its corners
+  // closes its loop as it is; further, the window is first pre-aligned onto the object's map
+  // estimate (the camera pose the object's corners give, spread over the keyframes since it was
+  // last seen) [px].
+  double loop_direct_px = 8.0;
+  // After the pre-alignment, the loop is accepted when the object's corners are within this RMS of
+  // their prediction; otherwise it is rejected and the object starts afresh as a new instance
+  // [px].
+  double loop_accept_px = 15.0;
+  // Plausibility budget of a pre-alignment: position correction <= budget_m + budget_per_m x the
+  // distance travelled since the object was last seen, yaw <= budget_yaw_deg + budget_yaw_per_m x
+  // that distance.
+  double budget_m = 0.3;
+  double budget_per_m = 0.1;
+  double budget_yaw_deg = 3.0;
+  double budget_yaw_per_m = 0.5;
+  bool Check(std::string* why) const;
+};
+
 struct EstimatorOptions {
   EstimatorMode mode = EstimatorMode::kWindow;
   LandmarkType landmarks = LandmarkType::kFsp;
@@ -144,6 +179,7 @@ struct EstimatorOptions {
   // Objects (instances) seen by fewer keyframes than this are not reported in the map.
   int min_observations = 3;
   FaultOptions faults;
+  GlobalOptions global;
   bool Check(std::string* why) const;
 };
 
@@ -186,6 +222,17 @@ struct EstimatorSummary {
   double blind_max_s = 0.0;
   int divergences = 0;
   int resets = 0;
+  // Global step (window mode, GlobalOptions): solves, their time and iterations, the keyframes of
+  // the last one, loops closed (a returning object kept its identity; pre-aligned: the window was
+  // moved onto the map first) and rejected (the object started afresh).
+  int global_solves = 0;
+  int global_rejected = 0;  // global solves whose result was implausible (not applied)
+  int global_iterations = 0;
+  std::vector<double> global_ms;
+  std::vector<int> global_keyframes;
+  int loops_closed = 0;
+  int loops_prealigned = 0;
+  int loops_rejected = 0;
   // One line per fault, "t=12.35 s: what happened, what was done" (the first kMaxWarnings).
   static constexpr int kMaxWarnings = 50;
   std::vector<std::string> warnings;
@@ -213,6 +260,9 @@ class Estimator {
   // before it (its own solve gave the relative pose); in batch mode the batch solution.
   std::vector<StampedPose> Trajectory() const;
   std::vector<StateSample> States() const;
+  // Per frame, the estimate the frame had right after its own update (what a live user had at that
+  // moment); Trajectory() is the final estimate after every later window and global solve.
+  std::vector<StampedPose> CausalTrajectory() const;
   // The estimate of the newest frame given to AddFrame (as Trajectory() reports it), or nullopt
   // before the first. O(1): what a caller predicting the next frame needs.
   std::optional<StateSample> Latest() const;

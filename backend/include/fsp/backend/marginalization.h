@@ -61,6 +61,12 @@ struct LinearPrior {
   Eigen::MatrixXd Hessian() const { return J.transpose() * J; }
 };
 
+// The same information re-centred at the blocks' current values: x0 = the values now in
+// prior.blocks, r0 = 0, so the prior's minimum is where the blocks are. For a window whose states
+// were moved by a solve that held every measurement (a global bundle adjustment, a loop
+// correction): without it the prior would pull the window back to where it was linearised.
+std::shared_ptr<const LinearPrior> Recentered(const LinearPrior& prior);
+
 struct MarginalizationSummary {
   bool success = false;
   std::string reason;         // when !success

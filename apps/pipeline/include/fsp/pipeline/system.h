@@ -62,6 +62,8 @@ class System {
   void Finish();
 
   std::vector<StampedPose> Trajectory() const;
+  // What a live user had at each frame (the estimate right after the frame's own update).
+  std::vector<StampedPose> CausalTrajectory() const;
   std::vector<backend::MapObject> Map() const;  // classes as the front end named them
   const backend::EstimatorSummary& summary() const;
 

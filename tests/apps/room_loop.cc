@@ -1,0 +1,97 @@
+#include "room_loop.h"
+
+#include <unistd.h>
+
+#include <fstream>
+#include <string>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "fsp/sim/scene.h"
+#include "fsp/sim/sequence_writer.h"
+
+namespace fsp::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+const char* kScene = R"(
+camera: {width: 320, height: 240, fx: 229.0, fy: 229.0, cx: 159.5, cy: 119.5, rate_hz: 20}
+T_B_C: [0, 0, 1, 0.05,  -1, 0, 0, 0.0,  0, -1, 0, 0.0,  0, 0, 0, 1]
+imu: {rate_hz: 200, gyroscope_noise_density: 1.7e-4, accelerometer_noise_density: 2.0e-3,
+      gyroscope_random_walk: 1.9e-5, accelerometer_random_walk: 3.0e-3,
+      gyroscope_bias: [0.002, -0.001, 0.0015], accelerometer_bias: [0.03, -0.02, 0.04]}
+room: {min: [0, 0, 0], max: [10, 8, 3]}
+objects:
+  - {id: 1, class: door, corners: [[1.9, 0, 0], [1.0, 0, 0], [1.0, 0, 2.1], [1.9, 0, 2.1]]}
+  - {id: 2, class: window, position: [4.6, 0, 1.0], rpy_deg: [90, 0, 180], width: 1.4, height: 1.2}
+  - {id: 3, class: window, position: [7.2, 0, 1.0], rpy_deg: [90, 0, 180], width: 1.4, height: 1.2}
+  - {id: 4, class: poster, position: [9.2, 0, 1.1], rpy_deg: [90, 0, 180], width: 0.8, height: 1.0}
+  - {id: 10, class: window, position: [0, 1.5, 1.0], rpy_deg: [90, 0, 90], width: 1.5, height: 1.2}
+  - {id: 11, class: poster, position: [0, 3.9, 1.2], rpy_deg: [90, 0, 90], width: 0.7, height: 1.0}
+  - {id: 12, class: door, position: [0, 6.4, 0], rpy_deg: [90, 0, 90], width: 0.9, height: 2.1}
+  - {id: 5, class: cabinet, corners: [[0.8, 8, 0], [2.0, 8, 0], [2.0, 8, 1.8], [0.8, 8, 1.8]]}
+  - {id: 6, class: painting, position: [2.8, 8, 1.3], rpy_deg: [90, 0, 0], width: 1.2, height: 0.8}
+  - {id: 7, class: window, position: [4.5, 8, 1.0], rpy_deg: [90, 0, 0], width: 1.4, height: 1.2}
+  - {id: 8, class: poster, position: [6.8, 8, 1.2], rpy_deg: [90, 0, 0], width: 0.8, height: 1.0}
+  - {id: 20, class: door, position: [10, 1.2, 0], rpy_deg: [90, 0, -90], width: 0.9, height: 2.1}
+  - {id: 21, class: window, position: [10, 3.6, 1.0], rpy_deg: [90, 0, -90], width: 1.5, height: 1.2}
+  - {id: 22, class: poster, position: [10, 6.0, 1.2], rpy_deg: [90, 0, -90], width: 0.8, height: 1.0}
+trajectory:
+  waypoints:
+    - [0, 5.0, 4.0, 1.3, -90]
+    - [2, 5.0, 4.0, 1.3, -90]
+    - [4, 5.2, 3.4, 1.4, -120]
+    - [6, 4.6, 3.0, 1.3, -150]
+    - [8, 4.0, 3.4, 1.5, 180]
+    - [10, 4.0, 4.2, 1.3, 150]
+    - [12, 4.4, 4.8, 1.4, 120]
+    - [14, 5.0, 5.0, 1.3, 90]
+    - [16, 5.6, 4.8, 1.5, 60]
+    - [18, 6.0, 4.2, 1.3, 20]
+    - [20, 6.0, 3.6, 1.4, 0]
+    - [22, 5.6, 3.2, 1.3, -40]
+    - [24, 5.0, 3.0, 1.4, -80]
+    - [26, 4.6, 3.2, 1.3, -110]
+    - [28, 4.4, 3.6, 1.4, -140]
+noise: {pixel_sigma: 1.0, seed: 4}
+duration_s: 26
+)";
+
+}  // namespace
+
+const fs::path& RoomLoopSequence() {
+  static const fs::path dir = [] {
+    const fs::path d = fs::temp_directory_path() / "fsp_tests" /
+                       ("room_loop_sequence_" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    sim::SequenceOptions options;
+    options.images = false;
+    options.video = false;
+    options.top_view = false;
+    options.progress = false;
+    const sim::Scene scene = sim::ParseScene(kScene, "room_loop.yaml", ".");
+    sim::WriteSequence(scene, d.string(), options);
+    // Without images the sequence has no cam0/data.csv: list the frames (ground-truth corners
+    // need no pixels; the reader decodes the first image only, so one blank image and empty files).
+    const fs::path cam0 = d / "mav0" / "cam0";
+    fs::create_directories(cam0 / "data");
+    std::ofstream csv(cam0 / "data.csv");
+    csv << "#timestamp [ns],filename\n";
+    bool first = true;
+    for (const int64_t t_ns : sim::FrameTimes(scene)) {
+      const std::string name = std::to_string(t_ns) + ".png";
+      csv << t_ns << "," << name << "\n";
+      if (first)
+        cv::imwrite((cam0 / "data" / name).string(),
+                    cv::Mat(scene.camera.height, scene.camera.width, CV_8UC1, cv::Scalar(128)));
+      else
+        std::ofstream(cam0 / "data" / name);
+      first = false;
+    }
+    return d;
+  }();
+  return dir;
+}
+
+}  // namespace fsp::test

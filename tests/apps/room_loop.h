@@ -1,0 +1,17 @@
+// The room-loop sequence of the end-to-end tests that need a loop: the end-to-end room with an
+// object on each of its four walls, a 26 s flight around its centre that looks at each wall in
+// turn and comes back to the first (its objects return: a loop). Rendered once per test process
+// without images (ground truth, IMU, corners: about a second), with a cam0 frame list so that
+// `fsp run --frontend gt-corners` reads it.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+
+namespace fsp::test {
+
+// The rendered sequence's folder (one per process: CTest runs tests as parallel processes).
+const std::filesystem::path& RoomLoopSequence();
+constexpr size_t kRoomLoopFrames = 520;  // 26 s at 20 Hz
+
+}  // namespace fsp::test

@@ -1,0 +1,113 @@
+// The window's global step end to end (`fsp run --frontend gt-corners`, window mode) on the room
+// loop (room_loop.h): its objects return after the flight looked at the other walls, so loops
+// close; the global bundle adjustment must keep their identities, end more accurate than the
+// window alone, write the causal trajectory beside the final one, and stay deterministic.
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "fsp/common/trajectory_io.h"
+#include "fsp/eval/evaluate.h"
+#include "room_loop.h"
+#include "test_util.h"
+
+namespace fsp::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct LoopRun {
+  nlohmann::json run;
+  double ate = -1.0, causal_ate = -1.0, width_mean = -1.0;
+  size_t causal_poses = 0, objects = 0;
+};
+
+// Runs the room loop with the config text CONFIG (YAML; empty: defaults) into OUT.
+LoopRun RunLoop(const fs::path& out, const std::string& config) {
+  fs::create_directories(out);
+  std::string extra;
+  if (!config.empty()) {
+    std::ofstream(out / "config.yaml") << config;
+    extra = " --config " + (out / "config.yaml").string();
+  }
+  LoopRun r;
+  const test::CommandResult c =
+      test::RunFsp("run " + test::RoomLoopSequence().string() +
+                   " --frontend gt-corners --seed 1 --out " + (out / "run").string() + extra);
+  EXPECT_EQ(c.exit_code, 0) << c.err;
+  if (c.exit_code != 0) return r;
+  std::ifstream(out / "run" / "run.json") >> r.run;
+  const eval::EvalOptions eo;
+  const eval::Metrics m = eval::Evaluate(
+      eval::ResolvePaths(test::RoomLoopSequence().string(), (out / "run").string()), eo);
+  const fs::path causal = out / "run" / "trajectory_causal.tum";
+  r.causal_poses = ReadTum(causal.string()).size();
+  const eval::Metrics mc =
+      eval::Evaluate(eval::ResolvePaths(test::RoomLoopSequence().string(), causal.string()), eo);
+  if (m.trajectory) r.ate = m.trajectory->ate.rmse;
+  if (mc.trajectory) r.causal_ate = mc.trajectory->ate.rmse;
+  if (m.objects) {
+    r.width_mean = m.objects->width_err.mean;
+    r.objects = m.objects->matched;
+  }
+  std::printf("[%s] ATE %.4f m (causal %.4f m), width err mean %.4f m, %zu objects, global %s\n",
+              out.filename().c_str(), r.ate, r.causal_ate, r.width_mean, r.objects,
+              r.run["global"].dump().c_str());
+  return r;
+}
+
+// Measured (seed 1): global step ATE 2.8 cm, causal 6.8 cm, width error mean 2.4 cm, 13 objects
+// matched, 3 loops closed, none rejected, 15 global solves; the window alone (global.enabled false)
+// ATE 11.9 cm, width error 4.7 cm, 12 objects, its 3 returning objects started afresh. Bounds: ~50
+// % over the measurement, and the global step at least 3x better than the window alone.
+TEST(GlobalStep, ClosesTheRoomLoopWithOneIdentityPerObject) {
+  const fs::path dir = test::ScratchDir();
+  const LoopRun on = RunLoop(dir / "global", "");
+  const LoopRun off = RunLoop(dir / "window_alone", "estimator:\n  global:\n    enabled: false\n");
+  ASSERT_GT(on.ate, 0.0);
+  ASSERT_GT(off.ate, 0.0);
+  const nlohmann::json& g = on.run["global"];
+  EXPECT_GE(g["loops_closed"].get<int>(), 3);
+  EXPECT_EQ(g["loops_rejected"].get<int>(), 0);
+  EXPECT_EQ(g["objects_reinitialized"].get<int>(), 0);
+  EXPECT_GE(g["solves"].get<int>(), 5);
+  EXPECT_EQ(g["rejected"].get<int>(), 0);
+  EXPECT_GT(off.run["global"]["objects_reinitialized"].get<int>(), 0);
+  EXPECT_EQ(off.run["global"]["solves"].get<int>(), 0);
+  EXPECT_EQ(on.causal_poses, test::kRoomLoopFrames);
+  EXPECT_LT(on.ate, 0.045);
+  EXPECT_LT(on.causal_ate, 0.10);
+  EXPECT_LT(on.width_mean, 0.035);
+  EXPECT_LT(3.0 * on.ate, off.ate);
+  EXPECT_GE(on.objects, off.objects);
+}
+
+// The other window boundary (no dense prior; the keyframe before the window held fixed, as
+// ORB-SLAM3's local inertial BA): measured ATE 2.8 cm, causal 5.2 cm.
+TEST(GlobalStep, FixedBoundaryKeyframeAlsoCloses) {
+  const LoopRun r =
+      RunLoop(test::ScratchDir() / "fixed", "estimator:\n  global:\n    boundary: fixed\n");
+  EXPECT_GE(r.run["global"]["loops_closed"].get<int>(), 3);
+  EXPECT_LT(r.ate, 0.045);
+  EXPECT_LT(r.causal_ate, 0.08);
+}
+
+// The synchronous schedule is deterministic: the same input gives byte-identical outputs.
+TEST(GlobalStep, SameInputSameBytes) {
+  const fs::path dir = test::ScratchDir();
+  RunLoop(dir / "a", "");
+  RunLoop(dir / "b", "");
+  for (const char* f : {"trajectory.tum", "trajectory_causal.tum", "map.json"}) {
+    const std::string a = test::Slurp(dir / "a" / "run" / f),
+                      b = test::Slurp(dir / "b" / "run" / f);
+    EXPECT_FALSE(a.empty()) << f;
+    EXPECT_EQ(a, b) << f;
+  }
+}
+
+}  // namespace
+}  // namespace fsp::apps
