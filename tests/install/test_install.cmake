@@ -1,6 +1,7 @@
-# Run by CTest (tests/install/CMakeLists.txt): installs the build into WORK_DIR/prefix, builds the
-# example apps/examples/minimal against it as a project of its own, renders 4 s of a scene and runs
-# the example on it. Fails on the first step that fails, naming it.
+# Run by CTest (tests/install/CMakeLists.txt): checks that the README shows the example's code,
+# installs the build into WORK_DIR/prefix, builds the example apps/examples/minimal against it as a
+# project of its own, renders 4 s of a scene and runs the example on it. Fails on the first step
+# that fails, naming it.
 foreach(var FSP_BUILD_DIR FSP_SOURCE_DIR FSP_BINARY WORK_DIR)
   if(NOT ${var})
     message(FATAL_ERROR "test_install.cmake: -D${var}=... is required")
@@ -14,6 +15,15 @@ function(step name)
   endif()
   set(step_output "${out}" PARENT_SCOPE)
 endfunction()
+
+# The README shows the example's code: it must be this file, word for word.
+file(READ ${FSP_SOURCE_DIR}/apps/examples/minimal/main.cc example_code)
+file(READ ${FSP_SOURCE_DIR}/README.md readme)
+string(FIND "${readme}" "```cpp\n${example_code}```" at)
+if(at EQUAL -1)
+  message(FATAL_ERROR "README.md (\"Using FSP-SLAM as a library\") does not show "
+                      "apps/examples/minimal/main.cc as it is")
+endif()
 
 set(prefix ${WORK_DIR}/prefix)
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -41,6 +51,12 @@ if(CXX_COMPILER_LAUNCHER)
 endif()
 if(BUILD_TYPE)
   list(APPEND configure_args -DCMAKE_BUILD_TYPE=${BUILD_TYPE})
+endif()
+if(CXX_FLAGS)
+  list(APPEND configure_args "-DCMAKE_CXX_FLAGS=${CXX_FLAGS}")
+endif()
+if(EXE_LINKER_FLAGS)
+  list(APPEND configure_args "-DCMAKE_EXE_LINKER_FLAGS=${EXE_LINKER_FLAGS}")
 endif()
 step("configuring the example" ${CMAKE_COMMAND} ${configure_args})
 step("building the example" ${CMAKE_COMMAND} --build ${WORK_DIR}/build)
