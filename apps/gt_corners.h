@@ -1,7 +1,6 @@
 // The front ends that read their corners from a file instead of detecting rectangles in the images
-// (no pixels are needed); both read the columns of observations_gt.csv with ReadCornerRows
-// (t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible]) and drop the rows with fully_visible =
-// 0:
+// (no pixels are needed). Both read observations_gt.csv's columns with ReadCornerRows
+// (t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible]) and drop the rows not fully visible:
 //  - gt-corners (`fsp run --frontend gt-corners`): a rendered sequence's ground-truth corner
 //    projections (observations_gt.csv, undistorted pixels) plus Gaussian pixel noise: the paper's
 //    own experiment, which measures the back end alone. Object classes come from objects_gt.json.

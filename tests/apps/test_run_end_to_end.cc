@@ -1,8 +1,8 @@
 // `fsp run --frontend gt-corners` (and `--frontend corners` fed the same corners) end to end on a
-// short rendered sequence (a 10 x 8 x 3 m room, 12
-// rectangles, 10 s: 2 s still, then a loop in front of two walls; 320 x 240 images): window mode
-// with 1 px corner noise stays within bounds set from measurement, and noise-free corners converge
-// to the truth. The sequence is rendered once per test binary run (a few seconds).
+// short rendered sequence (a 10 x 8 x 3 m room, 12 rectangles, 10 s: 2 s still, then a loop in
+// front of two walls; 320 x 240 images): window mode with 1 px corner noise stays within bounds set
+// from measurement, and noise-free corners converge to the truth. The sequence is rendered once per
+// test binary run (a few seconds).
 #include <unistd.h>
 
 #include <algorithm>
