@@ -1,5 +1,5 @@
-// fsp run INPUT --out DIR [--calib FILE] [--imu FILE] [--config FILE] [--frontend
-// rect|apriltag|gt-corners]
+// fsp run INPUT --out DIR [--calib FILE] [--imu FILE] [--config FILE]
+//         [--frontend rect|apriltag|gt-corners|corners] [--corners FILE] [--objects FILE]
 //         [--landmarks fsp|fhp] [--mode window|batch] [--realtime] [--seed N]
 // Runs the pipeline on a recording and writes trajectory.tum, map.json, observations.csv and
 // run.json.
@@ -48,6 +48,7 @@ void Run(const RunArgs& args) {
   std::printf("fsp run: %s, %s landmarks, %s mode, front end %s", r.input.c_str(),
               r.landmarks.c_str(), r.mode.c_str(), r.frontend.c_str());
   if (r.frontend == "gt-corners") std::printf(" (sigma %.3g px, seed %u)", r.pixel_sigma, r.seed);
+  if (r.frontend == "corners") std::printf(" (%s)", args.request.corners.c_str());
   std::printf("\n");
   std::printf(
       "  frames %d (%d processed, %d dropped), keyframes %d, observations %d, objects in map %d\n",
@@ -95,7 +96,9 @@ void AddRunCommand(CLI::App& root) {
                                   "trajectory.tum, map.json, observations.csv and run.json to "
                                   "--out DIR. The front end gt-corners reads\n"
                                   "a rendered sequence's ground-truth corners "
-                                  "(observations_gt.csv) plus pixel noise from the config.");
+                                  "(observations_gt.csv) plus pixel noise from the config;\n"
+                                  "corners reads another detector's corners (--corners FILE, "
+                                  "the same columns, distorted pixels).");
   sub->add_option("INPUT", args->request.source.input,
                   "dataset folder (EuRoC layout: DIR/mav0 or mav0 itself)");
   sub->add_option("--out", args->request.out_dir, "output folder (created)");
@@ -107,10 +110,17 @@ void AddRunCommand(CLI::App& root) {
   sub->add_option("--config", args->config,
                   "YAML configuration (assets/config/default.yaml lists every key)");
   sub->add_option("--frontend", args->request.frontend,
-                  "front end: rect (rectangles + tag decoding), apriltag, or gt-corners (rendered "
-                  "sequences)")
-      ->check(CLI::IsMember({"rect", "apriltag", "gt-corners"}))
+                  "front end: rect (rectangles + tag decoding), apriltag, gt-corners (rendered "
+                  "sequences) or corners (--corners FILE)")
+      ->check(CLI::IsMember({"rect", "apriltag", "gt-corners", "corners"}))
       ->default_str("rect");
+  sub->add_option("--corners", args->request.corners,
+                  "--frontend corners: csv t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible] "
+                  "(observations_gt.csv's columns) of corners found in the raw images: distorted "
+                  "pixels, s1..s4 order, t_ns the frame times of INPUT");
+  sub->add_option("--objects", args->request.objects,
+                  "--frontend corners: object classes, {\"objects\": [{\"id\": 1, \"class\": "
+                  "\"door\"}, ...]} (objects_gt.json's layout); default: every class unknown");
   sub->add_option("--landmarks", args->landmarks,
                   "rectangle landmarks: fsp (8 DoF) or fhp (12 DoF baseline)")
       ->check(CLI::IsMember({"fsp", "fhp"}));

@@ -1,8 +1,10 @@
 #include "gt_corners.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <set>
 
 #include <nlohmann/json.hpp>
 
@@ -12,9 +14,6 @@ namespace fsp::apps {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-// id -> class from objects_gt.json ({"objects": [{"id", "class", ...}]}).
 std::map<int, ObjectClass> ReadObjectClasses(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw InputError(path, 0, "cannot open");
@@ -45,6 +44,8 @@ std::map<int, ObjectClass> ReadObjectClasses(const std::string& path) {
   }
   return classes;
 }
+
+namespace {
 
 std::string RequireFile(const fs::path& root, const char* name) {
   const fs::path p = root / name;
@@ -107,7 +108,63 @@ GtCornersFrontend::GtCornersFrontend(const std::string& input, const GtCornersOp
   }
 }
 
-std::vector<ObjectObservation> GtCornersFrontend::Process(int64_t t_ns) {
+ExternalCornersFrontend::ExternalCornersFrontend(const std::string& corners,
+                                                 const std::string& objects,
+                                                 const Calibration& calibration,
+                                                 const std::vector<int64_t>& frame_times) {
+  observations_path_ = corners;
+  if (!fs::is_regular_file(corners)) throw InputError(corners, 0, "corners file not found");
+  const std::vector<CornerRow> rows = ReadCornerRows(corners);  // columns, numbers, time order
+  if (rows.empty()) {
+    throw InputError(corners, 0,
+                     "no rows (expected t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible])");
+  }
+  std::map<int, ObjectClass> classes;
+  if (!objects.empty()) classes = ReadObjectClasses(objects);
+  const std::set<int64_t> frames(frame_times.begin(), frame_times.end());
+  const PinholeRadtan& camera = calibration.camera;
+  stats_.rows = static_cast<int>(rows.size());
+  for (const CornerRow& row : rows) {
+    const auto fail = [&](const std::string& what) { throw InputError(corners, row.line, what); };
+    const int64_t t_ns = row.t_ns + calibration.time_offset_ns;
+    if (!frames.count(t_ns)) {
+      std::string what = "t_ns " + std::to_string(row.t_ns) + " matches no frame of the input";
+      if (calibration.time_offset_ns != 0)
+        what += " (with time_offset_ns " + std::to_string(calibration.time_offset_ns) + ")";
+      if (!frames.empty()) {
+        what += "; its frames span [" + std::to_string(*frames.begin()) + ", " +
+                std::to_string(*frames.rbegin()) + "] ns";
+      }
+      fail(what);
+    }
+    if (!row.fully_visible) {
+      ++stats_.rows_not_visible;
+      continue;
+    }
+    ObjectObservation obs;
+    obs.t_ns = t_ns;
+    obs.object_id = row.object_id;
+    if (!objects.empty()) {
+      const auto cls = classes.find(row.object_id);
+      if (cls == classes.end())
+        fail("object " + std::to_string(row.object_id) + " is not in " + objects);
+      obs.object_class = cls->second;
+    }
+    for (int j = 0; j < 4; ++j) {
+      obs.corners[j] =
+          camera.HasDistortion() ? camera.UndistortPixel(row.corners[j]) : row.corners[j];
+    }
+    std::vector<ObjectObservation>& frame = by_time_[t_ns];
+    if (std::any_of(frame.begin(), frame.end(),
+                    [&](const ObjectObservation& o) { return o.object_id == obs.object_id; })) {
+      fail("object " + std::to_string(obs.object_id) + " appears twice at t_ns " +
+           std::to_string(row.t_ns));
+    }
+    frame.push_back(obs);
+  }
+}
+
+std::vector<ObjectObservation> CornerFileFrontend::Process(int64_t t_ns) {
   const auto it = by_time_.find(t_ns);
   if (it == by_time_.end()) return {};
   ++stats_.frames_matched;

@@ -1,8 +1,11 @@
-// The gt-corners front end (`fsp run --frontend gt-corners`): instead of detecting rectangles in
-// the images, it reads a rendered sequence's ground-truth corner projections (observations_gt.csv),
-// keeps the objects that are fully visible in each frame and adds Gaussian pixel noise: the paper's
-// own experiment, which measures the back end alone. Object classes come from objects_gt.json. No
-// pixels are needed.
+// The front ends that read their corners from a file instead of detecting rectangles in the images
+// (no pixels are needed). Both read observations_gt.csv's columns with ReadCornerRows
+// (t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible]) and drop the rows not fully visible:
+//  - gt-corners (`fsp run --frontend gt-corners`): a rendered sequence's ground-truth corner
+//    projections (observations_gt.csv, undistorted pixels) plus Gaussian pixel noise: the paper's
+//    own experiment, which measures the back end alone. Object classes come from objects_gt.json.
+//  - corners (`fsp run --frontend corners --corners FILE [--objects FILE]`): the corners another
+//    detector found in the raw images (distorted pixels), undistorted with the calibration.
 #pragma once
 
 #include <cstdint>
@@ -10,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "fsp/common/calibration.h"
 #include "fsp/common/observations_io.h"
 #include "fsp/common/types.h"
 #include "run_config.h"
@@ -21,14 +25,35 @@ namespace fsp::apps {
 // sequence).
 std::string SequenceRootOf(const std::string& input);
 
-struct GtCornersStats {
-  int rows = 0;              // rows in observations_gt.csv
+// id -> class from an objects file in objects_gt.json's layout ({"objects": [{"id": 1, "class":
+// "door", ...}, ...]}; other keys are ignored, a missing class is unknown). Throws InputError
+// naming the file and the object.
+std::map<int, ObjectClass> ReadObjectClasses(const std::string& path);
+
+struct CornerFileStats {
+  int rows = 0;              // rows in the corners file
   int rows_not_visible = 0;  // dropped: fully_visible = 0
   int frames_matched = 0;    // frames given to Process() that had rows
   int observations = 0;      // observations handed out
 };
 
-class GtCornersFrontend {
+// What both front ends share: the observations, read up front, handed out by frame time.
+class CornerFileFrontend {
+ public:
+  virtual ~CornerFileFrontend() = default;
+  // The observations of the frame at t_ns (exact time match; none when the frame has no rows).
+  std::vector<ObjectObservation> Process(int64_t t_ns);
+  const std::string& observations_path() const { return observations_path_; }
+  const CornerFileStats& stats() const { return stats_; }
+
+ protected:
+  CornerFileFrontend() = default;
+  std::string observations_path_;
+  std::map<int64_t, std::vector<ObjectObservation>> by_time_;
+  CornerFileStats stats_;
+};
+
+class GtCornersFrontend : public CornerFileFrontend {
  public:
   // Reads ROOT/observations_gt.csv and ROOT/objects_gt.json (ROOT = SequenceRootOf(input)) and
   // draws the noise of every fully visible row up front, in file order, from
@@ -36,18 +61,22 @@ class GtCornersFrontend {
   // (--realtime may drop some). Throws InputError
   // ("gt-corners needs a rendered sequence: FILE not found", or naming the file and the problem).
   GtCornersFrontend(const std::string& input, const GtCornersOptions& options);
+};
 
-  // The noisy observations of the frame at t_ns (exact time match; none when the frame has no
-  // rows).
-  std::vector<ObjectObservation> Process(int64_t t_ns);
-
-  const std::string& observations_path() const { return observations_path_; }
-  const GtCornersStats& stats() const { return stats_; }
-
- private:
-  std::string observations_path_;
-  std::map<int64_t, std::vector<ObjectObservation>> by_time_;
-  GtCornersStats stats_;
+// The corners front end. CORNERS: the columns of observations_gt.csv, but the corners are where a
+// detector found them in the raw image (distorted pixels, OpenCV convention: integer coordinates
+// are pixel centres), in s1..s4 order (README, "Conventions"); they are undistorted with
+// CALIBRATION's camera. t_ns is the frame's time as INPUT lists it (EuRoC cam0/data.csv, image
+// name, video clock or --frame-times); the calibration's time_offset_ns is added, as it is to the
+// frames. OBJECTS (optional, ReadObjectClasses' layout) names the classes, which give the
+// single-view initialisation its width prior; without it every object is of class unknown. Throws
+// InputError ("FILE:LINE: what") on a missing or malformed file, a non-finite value, times going
+// backwards, a time that matches none of FRAME_TIMES (the input's frame times, offset included),
+// an object twice in one frame, an object OBJECTS does not list, or a file without rows.
+class ExternalCornersFrontend : public CornerFileFrontend {
+ public:
+  ExternalCornersFrontend(const std::string& corners, const std::string& objects,
+                          const Calibration& calibration, const std::vector<int64_t>& frame_times);
 };
 
 // One observations.csv row per observation (no visibility flag is written for a run's output).

@@ -50,12 +50,20 @@ const char* LandmarkName(backend::LandmarkType landmarks) {
 }
 
 RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
-  const bool from_images = request.frontend != "gt-corners";
+  const bool gt = request.frontend == "gt-corners";
+  const bool external = request.frontend == "corners";
+  const bool from_images = !gt && !external;
   pipeline::SystemOptions system_options;
   system_options.frontend = config.frontend;
   if (from_images &&
-      !frontend::ParseDetectorKind(request.frontend, &system_options.frontend.detector))
-    throw InputError("--frontend " + request.frontend + ": unknown (rect, apriltag or gt-corners)");
+      !frontend::ParseDetectorKind(request.frontend, &system_options.frontend.detector)) {
+    throw InputError("--frontend " + request.frontend +
+                     ": unknown (rect, apriltag, gt-corners or corners)");
+  }
+  if (external && request.corners.empty())
+    throw InputError("--frontend corners needs --corners FILE");
+  if (!external && (!request.corners.empty() || !request.objects.empty()))
+    throw InputError("--corners and --objects go with --frontend corners");
   std::string why;
   if (!config.estimator.Check(&why))
     throw InputError((config.source.empty() ? "config" : config.source) + ": " + why);
@@ -65,12 +73,17 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
     throw InputError(request.source.input + ": INPUT not found");
   const Clock::time_point wall_start = Clock::now();
   SourceOptions source_options = request.source;
-  source_options.decode_images = from_images;  // gt-corners needs no pixels
+  source_options.decode_images = from_images;  // corners from a file need no pixels
   // The gt-corners front end first: a missing observations_gt.csv is the likelier mistake and its
-  // message the clearer.
-  std::optional<GtCornersFrontend> gt_corners;
-  if (!from_images) gt_corners.emplace(request.source.input, config.gt_corners);
+  // message the clearer. The corners front end needs the frame times.
+  std::unique_ptr<CornerFileFrontend> corner_file;
+  if (gt)
+    corner_file = std::make_unique<GtCornersFrontend>(request.source.input, config.gt_corners);
   std::unique_ptr<Source> source = OpenSource(source_options);
+  if (external) {
+    corner_file = std::make_unique<ExternalCornersFrontend>(
+        request.corners, request.objects, source->calibration(), source->frame_times());
+  }
 
   Calibration calibration = source->calibration();
   calibration.imu = config.imu.Apply(calibration.imu);
@@ -92,8 +105,8 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   report.landmarks = LandmarkName(options.landmarks);
   report.config = config.source;
   report.realtime = request.realtime;
-  report.seed = from_images ? 0 : config.gt_corners.seed;
-  report.pixel_sigma = from_images ? 0.0 : config.gt_corners.pixel_sigma;
+  report.seed = gt ? config.gt_corners.seed : 0;
+  report.pixel_sigma = gt ? config.gt_corners.pixel_sigma : 0.0;
   const std::vector<int64_t>& frame_times = source->frame_times();
   report.frames = static_cast<int>(frame_times.size());
   if (frame_times.size() >= 2)
@@ -138,9 +151,9 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
       pacer->WaitFor(frame.t_ns);
     }
     pipeline::FrameOutput out;
-    if (gt_corners) {
+    if (corner_file) {
       const Clock::time_point t0 = Clock::now();
-      std::vector<ObjectObservation> observations = gt_corners->Process(frame.t_ns);
+      std::vector<ObjectObservation> observations = corner_file->Process(frame.t_ns);
       const double ms = MsSince(t0);
       out = slam.AddObservations(frame.t_ns, observations);
       out.frontend_ms = ms;
@@ -170,9 +183,9 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   progress.reset();  // ends the bar's line before anything else is printed
   report.wall_s = std::chrono::duration<double>(Clock::now() - wall_start).count();
 
-  if (gt_corners && gt_corners->stats().rows > 0 && gt_corners->stats().frames_matched == 0 &&
+  if (gt && corner_file->stats().rows > 0 && corner_file->stats().frames_matched == 0 &&
       report.frames_processed > 0) {
-    throw InputError(gt_corners->observations_path() +
+    throw InputError(corner_file->observations_path() +
                      ": no row's t_ns matches a frame time of the input (a different sequence?)");
   }
 

@@ -14,7 +14,9 @@ namespace fsp::apps {
 struct RunRequest {
   SourceOptions source;           // INPUT, --calib, --imu
   std::string out_dir;            // created when missing
-  std::string frontend = "rect";  // rect | apriltag (from images) | gt-corners
+  std::string frontend = "rect";  // rect | apriltag (from images) | gt-corners | corners
+  std::string corners;            // --frontend corners: the corners file (ExternalCornersFrontend)
+  std::string objects;            // --frontend corners: optional object classes
   // Pace the input at its recorded rate and drop the frames the pipeline cannot keep up with (a
   // frame is dropped when the next one is already due by the time the pipeline is ready for it).
   bool realtime = false;

@@ -17,6 +17,7 @@ std::vector<CornerRow> ReadCornerRows(const std::string& path) {
     if (!f.empty() && f[0] == "t_ns") continue;  // header without '#'
     reader.ExpectColumns(f, 10, 11);
     CornerRow row;
+    row.line = reader.line();
     row.t_ns = reader.Int64(f, 0, "t_ns");
     row.object_id = static_cast<int>(reader.Int64(f, 1, "object_id"));
     static const char* kNames[8] = {"u1", "v1", "u2", "v2", "u3", "v3", "u4", "v4"};

@@ -1,5 +1,7 @@
 // The gt-corners front end on a tiny hand-written sequence folder: exact corners at σ = 0, the same
-// noise for the same seed, invisible rows dropped, clear errors.
+// noise for the same seed, invisible rows dropped, clear errors. The corners front end (another
+// detector's distorted corners): undistorted with the calibration, classes from an objects file,
+// the time offset, and a clear error for every kind of bad file.
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -167,6 +169,139 @@ TEST(GtCorners, ClearErrors) {
 
   e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(-1.0)); });
   EXPECT_NE(e.find("pixel_sigma"), std::string::npos) << e;
+}
+
+// A camera with lens distortion (the fixture's 32 x 24 px, EuRoC-like coefficients).
+Calibration DistortedCalibration() {
+  Calibration c = test::TestCalibration();
+  c.camera.distortion = {-0.28, 0.07, 0.0002, 0.00002};
+  return c;
+}
+
+// The corners file of MakeSequence's rows as a detector would report them: distorted by CAMERA.
+void WriteDistortedCorners(const fs::path& path, const std::vector<int64_t>& t,
+                           const PinholeRadtan& camera) {
+  std::vector<CornerRow> rows;
+  for (int k = 0; k < 4; ++k) {
+    for (int id : {1, 2}) {
+      CornerRow r;
+      r.t_ns = t[k];
+      r.object_id = id;
+      const Corners truth = TrueCorners(id, k);
+      for (int j = 0; j < 4; ++j) r.corners[j] = camera.DistortPixel(truth[j]);
+      r.fully_visible = !(id == 2 && k == 2);
+      rows.push_back(r);
+    }
+  }
+  WriteCornerRows(rows, path.string(), /*with_flag=*/true);
+}
+
+TEST(ExternalCorners, UndistortsWithTheCalibration) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = MakeSequence(dir);
+  const Calibration calib = DistortedCalibration();
+  WriteDistortedCorners(dir / "corners.csv", t, calib.camera);
+  ExternalCornersFrontend fe((dir / "corners.csv").string(), "", calib, t);
+  double max_err = 0.0, max_shift = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    const std::vector<ObjectObservation> obs = fe.Process(t[k]);
+    ASSERT_EQ(obs.size(), k == 2 ? 1u : 2u) << "frame " << k;
+    for (const ObjectObservation& o : obs) {
+      EXPECT_EQ(o.t_ns, t[k]);
+      EXPECT_EQ(o.object_class, ObjectClass::kUnknown);  // no objects file
+      const Corners truth = TrueCorners(o.object_id, k);
+      for (int j = 0; j < 4; ++j) {
+        max_err = std::max(max_err, (o.corners[j] - truth[j]).norm());
+        max_shift = std::max(max_shift, (calib.camera.DistortPixel(truth[j]) - truth[j]).norm());
+      }
+    }
+  }
+  EXPECT_GT(max_shift, 0.3);  // the distortion is large enough to matter ...
+  EXPECT_LT(max_err, 2e-4);   // ... and undone (the file holds 4 decimals)
+  EXPECT_EQ(fe.stats().rows, 8);
+  EXPECT_EQ(fe.stats().rows_not_visible, 1);
+  EXPECT_EQ(fe.stats().frames_matched, 4);
+  EXPECT_EQ(fe.stats().observations, 7);
+}
+
+TEST(ExternalCorners, WithoutDistortionTheCornersAreTheFilesAndClassesComeFromObjects) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = MakeSequence(dir);
+  // observations_gt.csv and objects_gt.json as another detector's output: what gt-corners gives
+  // with σ = 0, bit for bit.
+  ExternalCornersFrontend fe((dir / "observations_gt.csv").string(),
+                             (dir / "objects_gt.json").string(), test::TestCalibration(), t);
+  GtCornersFrontend gt(dir.string(), Sigma(0.0));
+  for (int k = 0; k < 4; ++k) {
+    const std::vector<ObjectObservation> a = fe.Process(t[k]), b = gt.Process(t[k]);
+    ASSERT_EQ(a.size(), b.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(a[i].object_id, b[i].object_id);
+      EXPECT_EQ(a[i].object_class, b[i].object_class);
+      for (int j = 0; j < 4; ++j) EXPECT_EQ(a[i].corners[j], b[i].corners[j]);
+    }
+  }
+}
+
+TEST(ExternalCorners, TimesAreTheInputsBeforeTheTimeOffset) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = MakeSequence(dir);
+  Calibration calib = test::TestCalibration();
+  calib.time_offset_ns = 1000;
+  std::vector<int64_t> frames = t;  // the frame times as the source reports them: offset added
+  for (int64_t& f : frames) f += calib.time_offset_ns;
+  ExternalCornersFrontend fe((dir / "observations_gt.csv").string(), "", calib, frames);
+  EXPECT_EQ(fe.Process(frames[0]).size(), 2u);
+  EXPECT_EQ(fe.Process(frames[0])[0].t_ns, frames[0]);
+  EXPECT_TRUE(fe.Process(t[1]).empty());
+}
+
+TEST(ExternalCorners, ClearErrors) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = MakeSequence(dir);
+  const Calibration calib = test::TestCalibration();
+  const fs::path file = dir / "corners.csv";
+  const auto error = [&](const std::string& objects = "") {
+    return ErrorOf([&] { ExternalCornersFrontend(file.string(), objects, calib, t); });
+  };
+  const std::string t0 = std::to_string(t[0]), t1 = std::to_string(t[1]);
+
+  std::string e = error();
+  EXPECT_NE(e.find("corners.csv: corners file not found"), std::string::npos) << e;
+
+  WriteText(file, "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4\n");
+  e = error();
+  EXPECT_NE(e.find("corners.csv: no rows"), std::string::npos) << e;
+
+  WriteText(file, t0 + ",1,1,2,3,4,5,6,7,8\n" + t0 + ",2,1,2,3,4,5,6,7\n");
+  e = error();
+  EXPECT_NE(e.find("corners.csv:2"), std::string::npos) << e;
+
+  WriteText(file, t0 + ",1,1,2,3,4,5,6,7,8\n" + t0 + ",2,1,2,3,nan,5,6,7,8\n");
+  e = error();
+  EXPECT_NE(e.find("corners.csv:2: column 6 (v2) is not finite"), std::string::npos) << e;
+
+  WriteText(file, t1 + ",1,1,2,3,4,5,6,7,8\n" + t0 + ",1,1,2,3,4,5,6,7,8\n");
+  e = error();
+  EXPECT_NE(e.find("corners.csv:2: timestamp " + t0 + " goes backwards"), std::string::npos) << e;
+
+  WriteText(file, t0 + ",1,1,2,3,4,5,6,7,8\n" + std::to_string(t[0] + 7) + ",1,1,2,3,4,5,6,7,8\n");
+  e = error();
+  EXPECT_NE(e.find("corners.csv:2: t_ns " + std::to_string(t[0] + 7) +
+                   " matches no frame of the input; its frames span [" + t0 + ", " +
+                   std::to_string(t[3]) + "] ns"),
+            std::string::npos)
+      << e;
+
+  WriteText(file, t0 + ",1,1,2,3,4,5,6,7,8\n" + t0 + ",1,1,2,3,4,5,6,7,8\n");
+  e = error();
+  EXPECT_NE(e.find("corners.csv:2: object 1 appears twice at t_ns " + t0), std::string::npos) << e;
+
+  WriteText(file, t0 + ",1,1,2,3,4,5,6,7,8\n" + t0 + ",3,1,2,3,4,5,6,7,8\n");
+  e = error((dir / "objects_gt.json").string());
+  EXPECT_NE(e.find("corners.csv:2: object 3 is not in"), std::string::npos) << e;
+  const ExternalCornersFrontend any_id(file.string(), "", calib, t);  // no objects file: any id
+  EXPECT_EQ(any_id.stats().rows, 2);
 }
 
 }  // namespace

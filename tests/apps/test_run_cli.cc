@@ -1,6 +1,7 @@
 // `fsp run` and `fsp bench` on bad input: a non-zero exit and one clear line on stderr.
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -35,6 +36,28 @@ TEST(RunCli, GtCornersNeedsARenderedSequence) {
                                   " --frontend gt-corners --out " + (dir / "out").string()),
                      "gt-corners needs a rendered sequence: " +
                          (dir / "seq" / "observations_gt.csv").string() + " not found");
+}
+
+TEST(RunCli, CornersFrontEndErrors) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = test::MakeEuroc(dir / "seq", 3);
+  const std::string run = "run " + (dir / "seq").string() + " --out " + (dir / "out").string();
+  ExpectOneLineError(test::RunFsp(run + " --frontend corners"),
+                     "--frontend corners needs --corners FILE");
+  ExpectOneLineError(test::RunFsp(run + " --corners " + (dir / "c.csv").string()),
+                     "--corners and --objects go with --frontend corners");
+  ExpectOneLineError(
+      test::RunFsp(run + " --frontend corners --corners " + (dir / "c.csv").string()),
+      (dir / "c.csv").string() + ": corners file not found");
+  test::WriteText(dir / "c.csv", std::to_string(t[0]) + ",1,1,2,3,4,5,6,7,8\n" +
+                                     std::to_string(t[2] + 1) + ",1,1,2,3,4,5,6,7,8\n");
+  ExpectOneLineError(
+      test::RunFsp(run + " --frontend corners --corners " + (dir / "c.csv").string()),
+      "c.csv:2: t_ns " + std::to_string(t[2] + 1) + " matches no frame of the input");
+  test::WriteText(dir / "c.csv", std::to_string(t[0]) + ",1,1,2,3,4,inf,6,7,8\n");
+  ExpectOneLineError(
+      test::RunFsp(run + " --frontend corners --corners " + (dir / "c.csv").string()),
+      "c.csv:1: column 7 (u3) is not finite");
 }
 
 TEST(RunCli, BadConfig) {

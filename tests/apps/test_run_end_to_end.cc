@@ -1,9 +1,12 @@
-// `fsp run --frontend gt-corners` end to end on a short rendered sequence (a 10 x 8 x 3 m room, 12
-// rectangles, 10 s: 2 s still, then a loop in front of two walls; 320 x 240 images): window mode
-// with 1 px corner noise stays within bounds set from measurement, and noise-free corners converge
-// to the truth. The sequence is rendered once per test binary run (a few seconds).
+// `fsp run --frontend gt-corners` (and `--frontend corners` fed the same corners) end to end on a
+// short rendered sequence (a 10 x 8 x 3 m room, 12 rectangles, 10 s: 2 s still, then a loop in
+// front of two walls; 320 x 240 images): window mode with 1 px corner noise stays within bounds set
+// from measurement, and noise-free corners converge to the truth. The sequence is rendered once per
+// test binary run (a few seconds).
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -12,6 +15,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "common/dataset_fixtures.h"
+#include "fsp/common/calibration.h"
 #include "fsp/common/observations_io.h"
 #include "fsp/common/trajectory_io.h"
 #include "fsp/eval/evaluate.h"
@@ -214,15 +219,76 @@ TEST(RunEndToEnd, SameSeedSameOutput) {
   const std::string base = "run " + Sequence().string() + " --frontend gt-corners --seed 5 --out ";
   ASSERT_EQ(test::RunFsp(base + a.string()).exit_code, 0);
   ASSERT_EQ(test::RunFsp(base + b.string()).exit_code, 0);
-  const auto slurp = [](const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
   for (const char* f : {"observations.csv", "trajectory.tum", "map.json"})
-    EXPECT_EQ(slurp(a / f), slurp(b / f)) << f;
-  EXPECT_FALSE(slurp(a / "observations.csv").empty());
+    EXPECT_EQ(test::ReadText(a / f), test::ReadText(b / f)) << f;
+  EXPECT_FALSE(test::ReadText(a / "observations.csv").empty());
+}
+
+// The corners front end fed the sequence's own observations_gt.csv and objects_gt.json (no lens
+// distortion in this scene, so its undistorted corners are also the raw image's) is gt-corners
+// without noise: the same outputs, byte for byte.
+TEST(RunEndToEnd, CornersFrontEndOnTheGroundTruthIsGtCornersWithoutNoise) {
+  const fs::path dir = test::ScratchDir(), cfg = dir / "sigma0.yaml";
+  std::ofstream(cfg) << "frontend:\n  gt_corners:\n    pixel_sigma: 0\n";
+  const std::string base = "run " + Sequence().string() + " --mode window --out ";
+  const test::CommandResult gt = test::RunFsp(base + (dir / "gt").string() +
+                                              " --frontend gt-corners --config " + cfg.string());
+  ASSERT_EQ(gt.exit_code, 0) << gt.err;
+  const test::CommandResult corners =
+      test::RunFsp(base + (dir / "corners").string() + " --frontend corners --corners " +
+                   (Sequence() / "observations_gt.csv").string() + " --objects " +
+                   (Sequence() / "objects_gt.json").string());
+  ASSERT_EQ(corners.exit_code, 0) << corners.err;
+  EXPECT_NE(corners.out.find("front end corners ("), std::string::npos) << corners.out;
+  for (const char* f : {"observations.csv", "trajectory.tum", "map.json"})
+    EXPECT_EQ(test::ReadText(dir / "gt" / f), test::ReadText(dir / "corners" / f)) << f;
+  EXPECT_EQ(ReadTum((dir / "corners" / "trajectory.tum").string()).size(), 200u);
+  std::ifstream in(dir / "corners" / "map.json");
+  const nlohmann::json map = nlohmann::json::parse(in);
+  EXPECT_GE(map["objects"].size(), 4u);
+}
+
+// The same with lens distortion: the corners file holds the distorted corners (as a detector finds
+// them in the raw image; 4 decimals), the calibration says how to undo it. The trajectory equals
+// gt-corners' to the rounding of the file.
+TEST(RunEndToEnd, CornersFrontEndUndoesTheLensDistortion) {
+  const fs::path dir = test::ScratchDir();
+  Calibration calib = ReadCalibration((Sequence() / "calib.yaml").string());
+  calib.camera.distortion = {-0.1, 0.03, 0.0002, -0.0001};  // the default room's lens
+  WriteCalibration(calib, (dir / "calib.yaml").string());
+  std::vector<CornerRow> rows = ReadCornerRows((Sequence() / "observations_gt.csv").string());
+  double max_shift = 0.0;
+  for (CornerRow& r : rows) {
+    for (Vec2& c : r.corners) {
+      const Vec2 d = calib.camera.DistortPixel(c);
+      if (r.fully_visible) max_shift = std::max(max_shift, (d - c).norm());
+      c = d;
+    }
+  }
+  EXPECT_GT(max_shift, 5.0);  // pixels: ignoring the distortion would matter
+  WriteCornerRows(rows, (dir / "distorted.csv").string(), /*with_flag=*/true);
+  std::ofstream(dir / "sigma0.yaml") << "frontend:\n  gt_corners:\n    pixel_sigma: 0\n";
+  const std::string base = "run " + Sequence().string() + " --mode window --calib " +
+                           (dir / "calib.yaml").string() + " --out ";
+  const test::CommandResult gt =
+      test::RunFsp(base + (dir / "gt").string() + " --frontend gt-corners --config " +
+                   (dir / "sigma0.yaml").string());
+  ASSERT_EQ(gt.exit_code, 0) << gt.err;
+  const test::CommandResult corners = test::RunFsp(
+      base + (dir / "corners").string() + " --frontend corners --corners " +
+      (dir / "distorted.csv").string() + " --objects " + (Sequence() / "objects_gt.json").string());
+  ASSERT_EQ(corners.exit_code, 0) << corners.err;
+  const std::vector<StampedPose> a = ReadTum((dir / "gt" / "trajectory.tum").string());
+  const std::vector<StampedPose> b = ReadTum((dir / "corners" / "trajectory.tum").string());
+  ASSERT_EQ(a.size(), 200u);
+  ASSERT_EQ(a.size(), b.size());
+  double max_diff = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].t_ns, b[i].t_ns);
+    max_diff = std::max(max_diff, (a[i].T_W_B.translation() - b[i].T_W_B.translation()).norm());
+  }
+  std::printf("[corners, distorted] largest position difference to gt-corners %.3g m\n", max_diff);
+  EXPECT_LT(max_diff, 1e-4);
 }
 
 }  // namespace

@@ -17,6 +17,7 @@ struct CornerRow {
   int object_id = -1;
   Corners corners;
   bool fully_visible = true;  // true when the file has no flag column
+  int line = 0;               // line of the file it was read from (0: not read from a file)
 };
 
 // Reads either layout (10 or 11 columns; a header line starting with '#' or "t_ns" is skipped).
