@@ -74,6 +74,8 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.global.max_iterations", &e.global.max_iterations, kAtLeastOne},
       {"estimator.global.final_iterations", &e.global.final_iterations, kAtLeastOne},
       {"estimator.global.boundary", &e.global.boundary, kAny},
+      {"estimator.global.apply_after_keyframes", &e.global.apply_after_keyframes, kNonNegative},
+      {"estimator.global.background", &e.global.background, kAny},
       {"estimator.global.loop_direct_px", &e.global.loop_direct_px, kNonNegative},
       {"estimator.global.loop_accept_px", &e.global.loop_accept_px, kNonNegative},
       {"estimator.global.budget_m", &e.global.budget_m, kNonNegative},

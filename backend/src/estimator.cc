@@ -7,6 +7,7 @@
 #include <deque>
 #include <optional>
 #include <sstream>
+#include <thread>
 #include <unordered_map>
 
 #include <ceres/ceres.h>
@@ -34,12 +35,13 @@ bool FaultOptions::Check(std::string* why) const {
 
 bool GlobalOptions::Check(std::string* why) const {
   const bool ok = every_keyframes >= 1 && max_iterations >= 1 && final_iterations >= 1 &&
-                  loop_direct_px >= 0.0 && loop_accept_px >= loop_direct_px && budget_m >= 0.0 &&
-                  budget_per_m >= 0.0 && budget_yaw_deg >= 0.0 && budget_yaw_per_m >= 0.0;
+                  apply_after_keyframes >= 0 && loop_direct_px >= 0.0 &&
+                  loop_accept_px >= loop_direct_px && budget_m >= 0.0 && budget_per_m >= 0.0 &&
+                  budget_yaw_deg >= 0.0 && budget_yaw_per_m >= 0.0;
   if (why)
     *why = ok ? ""
-              : "every_keyframes and the iterations must be >= 1, 0 <= loop_direct_px <= "
-                "loop_accept_px, budgets >= 0";
+              : "every_keyframes and the iterations must be >= 1, apply_after_keyframes >= 0, 0 "
+                "<= loop_direct_px <= loop_accept_px, budgets >= 0";
   return ok;
 }
 
@@ -134,6 +136,9 @@ struct Object {
   std::deque<PastView> past;
 };
 
+using Keyframes = std::deque<std::unique_ptr<Keyframe>>;
+using Objects = std::map<int, std::unique_ptr<Object>>;
+
 }  // namespace
 
 struct Estimator::Impl {
@@ -142,6 +147,9 @@ struct Estimator::Impl {
     T_B_C = calibration.T_B_C;
     options.imu.noise = calibration.imu;
   }
+  ~Impl() { DiscardGlobal(); }
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
 
   Calibration calibration;
   EstimatorOptions options;
@@ -385,8 +393,9 @@ struct Estimator::Impl {
     if (options.mode == EstimatorMode::kWindow) {
       if (options.global.enabled) {
         if (keyframes.back()->keyframe) ++keyframes_since_global;
-        if (loop_pending || keyframes_since_global >= options.global.every_keyframes)
-          SolveGlobal(options.global.max_iterations);
+        if (!job && (loop_pending || keyframes_since_global >= options.global.every_keyframes))
+          StartGlobal();
+        if (job && summary.keyframes >= job->apply_at) ApplyGlobal();
       }
       SolveWindow(options.window_max_iterations);
       const auto in_window = [this] {
@@ -551,6 +560,12 @@ struct Estimator::Impl {
     const GlobalOptions& g = options.global;
     const std::optional<double> e0 = PredictionError(*obj, CameraPose(*kf), corners);
     if (e0 && *e0 <= g.loop_direct_px) return AcceptLoop();
+    // The pre-alignment needs the newest map: a global solve in flight is applied first.
+    if (job) {
+      ApplyGlobal();
+      const std::optional<double> e = PredictionError(*obj, CameraPose(*kf), corners);
+      if (e && *e <= g.loop_direct_px) return AcceptLoop();
+    }
     if (PreAlign(obj, kf, corners)) {
       ++summary.loops_prealigned;
       return AcceptLoop();
@@ -773,21 +788,23 @@ struct Estimator::Impl {
     std::vector<KeyframeState> states;                         // keyframes [begin, end)
     std::vector<std::pair<FspLandmark, FhpLandmark>> objects;  // in the order of `objects`
   };
-  Snapshot Save(size_t begin) const {
+  Snapshot Save(size_t begin) const { return Save(keyframes, objects, begin); }
+  static Snapshot Save(const Keyframes& kfs, const Objects& objs, size_t begin) {
     Snapshot s;
     s.begin = begin;
-    for (size_t i = begin; i < keyframes.size(); ++i) s.states.push_back(keyframes[i]->state);
-    for (const auto& [id, obj] : objects) s.objects.emplace_back(obj->fsp, obj->fhp);
+    for (size_t i = begin; i < kfs.size(); ++i) s.states.push_back(kfs[i]->state);
+    for (const auto& [id, obj] : objs) s.objects.emplace_back(obj->fsp, obj->fhp);
     return s;
   }
-  void Restore(const Snapshot& s) {
+  void Restore(const Snapshot& s) { Restore(s, &keyframes, &objects); }
+  static void Restore(const Snapshot& s, Keyframes* kfs, Objects* objs) {
     for (size_t k = 0; k < s.states.size(); ++k) {
-      KeyframeState& st = keyframes[s.begin + k]->state;
+      KeyframeState& st = (*kfs)[s.begin + k]->state;
       std::copy(s.states[k].pose, s.states[k].pose + kPoseSize, st.pose);
       std::copy(s.states[k].speed_bias, s.states[k].speed_bias + kSpeedBiasSize, st.speed_bias);
     }
     size_t k = 0;
-    for (auto& [id, obj] : objects) {
+    for (auto& [id, obj] : *objs) {
       obj->fsp = s.objects[k].first;
       obj->fhp = s.objects[k].second;
       ++k;
@@ -797,12 +814,16 @@ struct Estimator::Impl {
   // Why a solve's result is implausible (empty when it is not): the solver failed, a state is not
   // finite, a speed or bias beyond FaultOptions' bounds, a keyframe moved further than max_jump_m.
   std::string Diverged(const ceres::Solver::Summary& s, const Snapshot& before) const {
+    return Diverged(s, before, keyframes);
+  }
+  std::string Diverged(const ceres::Solver::Summary& s, const Snapshot& before,
+                       const Keyframes& kfs) const {
     const FaultOptions& f = options.faults;
     if (s.termination_type == ceres::FAILURE || !std::isfinite(s.final_cost))
       return "the solver failed";
     char buf[128];
     for (size_t k = 0; k < before.states.size(); ++k) {
-      const KeyframeState& st = keyframes[before.begin + k]->state;
+      const KeyframeState& st = kfs[before.begin + k]->state;
       const Eigen::Map<const Eigen::Matrix<double, kPoseSize, 1>> pose(st.pose);
       const Eigen::Map<const Eigen::Matrix<double, kSpeedBiasSize, 1>> sb(st.speed_bias);
       if (!pose.allFinite() || !sb.allFinite()) return "a state is not finite";
@@ -833,6 +854,7 @@ struct Estimator::Impl {
   // batch mode the session break only cuts the IMU chain (every keyframe stays a variable and the
   // objects are kept).
   void Restart(const std::string& why) {
+    DiscardGlobal();
     Keyframe* kf = keyframes.back().get();
     if (!kf->keyframe) {
       kf->keyframe = true;
@@ -880,9 +902,10 @@ struct Estimator::Impl {
     }
   }
 
-  void AddObjectPriors(ceres::Problem* problem) {
+  void AddObjectPriors(ceres::Problem* problem) { AddObjectPriors(problem, &objects); }
+  void AddObjectPriors(ceres::Problem* problem, Objects* objs) const {
     if (options.landmarks != LandmarkType::kFsp) return;
-    for (auto& [id, obj] : objects) {
+    for (auto& [id, obj] : *objs) {
       if (!problem->HasParameterBlock(obj->fsp.x)) continue;
       problem->AddResidualBlock(
           new LogWidthPrior(obj->width_prior_m, options.prior_log_omega_sigma), nullptr,
@@ -1089,33 +1112,41 @@ struct Estimator::Impl {
 
   // --- Batch
   // ---------------------------------------------------------------------------------------
-  // Every keyframe and object in one problem: the batch's final solve and the window's global step.
-  // Returns false, with the states restored and a warning, when the result is implausible (the
-  // checks of Diverged); the caller counts it (a batch divergence, a rejected global solve).
-  bool SolveFull(int max_iterations, bool with_sigmas, const char* what,
-                 ceres::Solver::Summary* s) {
-    ceres::Problem problem(ProblemOptions());
-    for (auto& kf : keyframes) AddStateBlocks(&problem, kf.get());
-    for (size_t i = 1; i < keyframes.size(); ++i)
-      if (!keyframes[i]->gauge) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
-    for (auto& kf : keyframes)
-      if (kf->gauge) AddGaugePriors(&problem, kf.get());
-    for (auto& kf : keyframes) {
+  // Every keyframe of `kfs` and object of `objs` in one problem, solved (the batch's final solve
+  // and the window's global step). Touches nothing but kfs and objs (a background global solve runs
+  // it on copies). Returns why the result is implausible (the checks of Diverged; kfs and objs
+  // restored then), empty when it is not.
+  std::string SolveAll(Keyframes* kfs, Objects* objs, int max_iterations, ceres::Solver::Summary* s,
+                       ceres::Problem* problem) {
+    for (auto& kf : *kfs) AddStateBlocks(problem, kf.get());
+    for (size_t i = 1; i < kfs->size(); ++i)
+      if (!(*kfs)[i]->gauge) AddImuFactor(problem, (*kfs)[i - 1].get(), (*kfs)[i].get());
+    for (auto& kf : *kfs)
+      if (kf->gauge) AddGaugePriors(problem, kf.get());
+    for (auto& kf : *kfs) {
       for (const ObjectObservation& o : kf->observations) {
         // Views from before an object's first_seen belong to an earlier instance of its id (a
         // rejected loop, a restart).
-        auto it = objects.find(o.object_id);
-        if (it != objects.end() && kf->index >= it->second->first_seen)
-          AddObservation(&problem, kf.get(), it->second.get(), o.corners,
+        auto it = objs->find(o.object_id);
+        if (it != objs->end() && kf->index >= it->second->first_seen)
+          AddObservation(problem, kf.get(), it->second.get(), o.corners,
                          [](const Keyframe*) { return true; });
       }
     }
-    AddObjectPriors(&problem);
-    const Snapshot before = Save(0);
-    ceres::Solve(SolverOptions(max_iterations), &problem, s);
-    const std::string diverged = Diverged(*s, before);
+    AddObjectPriors(problem, objs);
+    const Snapshot before = Save(*kfs, *objs, 0);
+    ceres::Solve(SolverOptions(max_iterations), problem, s);
+    const std::string diverged = Diverged(*s, before, *kfs);
+    if (!diverged.empty()) Restore(before, kfs, objs);
+    return diverged;
+  }
+
+  // SolveAll on the estimator's own keyframes and objects; false (with a warning) when rejected.
+  bool SolveFull(int max_iterations, bool with_sigmas, const char* what,
+                 ceres::Solver::Summary* s) {
+    ceres::Problem problem(ProblemOptions());
+    const std::string diverged = SolveAll(&keyframes, &objects, max_iterations, s, &problem);
     if (!diverged.empty()) {
-      Restore(before);
       Warn(keyframes.back()->state.t_ns,
            std::string("divergence in ") + what + " (" + diverged + "): its result was rejected");
       return false;
@@ -1152,6 +1183,110 @@ struct Estimator::Impl {
     }
     ++summary.global_solves;
     if (prior) prior = Recentered(*prior);
+  }
+
+  // A global solve in flight (GlobalOptions::apply_after_keyframes, background): it works on copies
+  // of the keyframes and objects, so the window goes on meanwhile.
+  struct GlobalJob {
+    Keyframes kfs;
+    Objects objs;
+    std::map<int, const Object*> originals;  // id -> the instance that was copied
+    int apply_at = 0;                        // summary.keyframes at which it is applied
+    ceres::Solver::Summary s;
+    std::string diverged;
+    double ms = 0.0;
+    std::thread thread;
+  };
+  std::unique_ptr<GlobalJob> job;
+
+  // Copies every keyframe (not a newest frame that is no keyframe: it is dropped later) and object
+  // and solves them, on a thread with `background`, else here.
+  void StartGlobal() {
+    auto j = std::make_unique<GlobalJob>();
+    const size_t n = keyframes.size() - (keyframes.back()->keyframe ? 0 : 1);
+    for (size_t i = 0; i < n; ++i) {
+      auto c = std::make_unique<Keyframe>(*keyframes[i]);
+      if (c->preint) c->preint = std::make_shared<ImuPreintegration>(*c->preint);
+      j->kfs.push_back(std::move(c));
+    }
+    for (const auto& [id, obj] : objects) {
+      if (obj->anchor->index >= static_cast<int>(n)) continue;  // anchors are keyframes
+      auto c = std::make_unique<Object>(*obj);
+      c->anchor = j->kfs[static_cast<size_t>(obj->anchor->index)].get();
+      c->past.clear();
+      j->originals[id] = obj.get();
+      j->objs[id] = std::move(c);
+    }
+    j->apply_at = summary.keyframes + options.global.apply_after_keyframes;
+    keyframes_since_global = 0;
+    loop_pending = false;
+    GlobalJob* w = j.get();
+    auto work = [this, w] {
+      const auto t0 = Clock::now();
+      ceres::Problem problem(ProblemOptions());
+      w->diverged = SolveAll(&w->kfs, &w->objs, options.global.max_iterations, &w->s, &problem);
+      w->ms = MsSince(t0);
+    };
+    if (options.global.background)
+      j->thread = std::thread(work);
+    else
+      work();
+    job = std::move(j);
+  }
+
+  // Applies the global solve in flight (waiting for it): the keyframes it solved take its values,
+  // the ones added since move rigidly with the newest of them, objects take its values (expressed
+  // at their current anchor when they were re-anchored meanwhile); objects retired meanwhile and
+  // objects new since are left as they are (the new ones move with their anchors).
+  void ApplyGlobal() {
+    if (!job) return;
+    const std::unique_ptr<GlobalJob> j = std::move(job);
+    if (j->thread.joinable()) j->thread.join();
+    summary.global_ms.push_back(j->ms);
+    summary.global_keyframes.push_back(static_cast<int>(j->kfs.size()));
+    summary.global_iterations += static_cast<int>(j->s.iterations.size());
+    if (!j->diverged.empty()) {
+      ++summary.global_rejected;
+      Warn(keyframes.back()->state.t_ns,
+           "divergence in a global solve (" + j->diverged + "): its result was rejected");
+      return;
+    }
+    ++summary.global_solves;
+    const size_t n = j->kfs.size();
+    const Rigid3 correction =
+        j->kfs[n - 1]->state.T_W_B() * keyframes[n - 1]->state.T_W_B().Inverse();
+    for (size_t i = 0; i < n; ++i) {
+      const KeyframeState& from = j->kfs[i]->state;
+      KeyframeState& to = keyframes[i]->state;
+      std::copy(from.pose, from.pose + kPoseSize, to.pose);
+      std::copy(from.speed_bias, from.speed_bias + kSpeedBiasSize, to.speed_bias);
+    }
+    for (size_t i = n; i < keyframes.size(); ++i) {
+      KeyframeState& st = keyframes[i]->state;
+      st.SetT_W_B(correction * st.T_W_B());
+      VelocityOf(st.speed_bias) = correction.rotation() * st.v_W();
+    }
+    for (const auto& [id, c] : j->objs) {
+      auto it = objects.find(id);
+      if (it == objects.end() || it->second.get() != j->originals.at(id)) continue;
+      Object& o = *it->second;
+      if (o.anchor->index == c->anchor->index) {
+        o.fsp = c->fsp;
+        o.fhp = c->fhp;
+      } else if (options.landmarks == LandmarkType::kFsp) {
+        ReanchorFsp(c->fsp, CameraPose(*c->anchor), CameraPose(*o.anchor), &o.fsp);
+      } else {
+        ReanchorFhp(c->fhp, CameraPose(*c->anchor), CameraPose(*o.anchor), &o.fhp);
+      }
+    }
+    for (auto& kf : keyframes) output[kf->frame] = kf->state.ToStateSample();
+    if (prior) prior = Recentered(*prior);
+  }
+
+  // A restart drops the global solve in flight (its states belong to the session that diverged).
+  void DiscardGlobal() {
+    if (job && job->thread.joinable()) job->thread.join();
+    job.reset();
   }
 
   // --- Map covariance
@@ -1232,6 +1367,7 @@ struct Estimator::Impl {
 
   void FinishWindow() {
     if (keyframes.empty()) return;
+    ApplyGlobal();
     SolveWindow(options.window_max_iterations * 3, /*finish=*/!options.global.enabled);
     if (options.global.enabled) SolveGlobal(options.global.final_iterations, /*final_solve=*/true);
   }

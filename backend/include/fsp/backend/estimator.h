@@ -97,6 +97,13 @@ struct GlobalOptions {
   // Solver iterations of a global solve during the run, and of the final one (Finish).
   int max_iterations = 10;
   int final_iterations = 50;
+  // A global solve started at keyframe k works on a copy of the states and objects and is applied
+  // when keyframe k + apply_after_keyframes arrives (earlier when a loop needs the map): keyframes
+  // in the solve take its values, the ones added since move rigidly with the newest of them
+  // (OKVIS2's synchronisation). With `background` the solve runs on its own thread meanwhile;
+  // without, inside AddFrame of keyframe k. Both give the same output, byte for byte.
+  int apply_after_keyframes = 5;
+  bool background = true;
   WindowBoundary boundary = WindowBoundary::kPrior;
   // A returning object (no window keyframe saw it) predicted within this RMS error of its corners
   // closes its loop as it is; further, the window is first pre-aligned onto the object's map
