@@ -108,6 +108,7 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                     {"reanchors", s.reanchors},
                     {"marginalizations", s.marginalizations},
                     {"marginalization_failures", s.marginalization_failures},
+                    {"zero_velocity_keyframes", s.zero_velocity_keyframes},
                     {"batch_solve_ms", s.batch_solve_ms},
                     {"final_cost", s.final_cost}};
   double global_ms_total = 0.0, global_ms_max = 0.0;

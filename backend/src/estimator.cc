@@ -45,6 +45,12 @@ bool GlobalOptions::Check(std::string* why) const {
   return ok;
 }
 
+bool ZeroVelocityOptions::Check(std::string* why) const {
+  const bool ok = max_turn_rate > 0.0 && max_disparity_px > 0.0 && velocity_sigma > 0.0;
+  if (why) *why = ok ? "" : "every threshold and sigma must be > 0";
+  return ok;
+}
+
 bool EstimatorOptions::Check(std::string* why) const {
   std::ostringstream os;
   std::string sub;
@@ -79,6 +85,8 @@ bool EstimatorOptions::Check(std::string* why) const {
     os << "faults: " << sub;
   else if (!global.Check(&sub))
     os << "global: " << sub;
+  else if (!zero_velocity.Check(&sub))
+    os << "zero_velocity: " << sub;
   if (why) *why = os.str();
   return os.str().empty();
 }
@@ -116,6 +124,8 @@ struct Keyframe {
   // previous keyframe, its gauge priors instead.
   std::optional<Gauge> gauge;
   std::vector<ObjectObservation> observations;
+  // Standing still since the previous keyframe (ZeroVelocityOptions): a zero-velocity prior.
+  bool still = false;
 };
 
 struct Object {
@@ -377,6 +387,10 @@ struct Estimator::Impl {
     }
     kf->state.t_ns = t_ns;
     kf->observations = std::move(obs);
+    if (kf->preint && prev_kf && Still(*prev_kf, *kf)) {
+      kf->still = true;
+      if (kf->keyframe) ++summary.zero_velocity_keyframes;
+    }
     keyframes.push_back(std::move(kf));
     output.push_back(keyframes.back()->state.ToStateSample());
     if (keyframes.back()->keyframe) ++summary.keyframes;
@@ -430,6 +444,40 @@ struct Estimator::Impl {
       if (it == objects.end() || it->second->last_seen < first_in_window) return true;
     }
     return false;
+  }
+
+  // Whether the vehicle stood still between keyframes `prev` and `kf` (ZeroVelocityOptions): a
+  // still IMU and every object seen by both at the same place in the image.
+  bool Still(const Keyframe& prev, const Keyframe& kf) const {
+    const ZeroVelocityOptions& z = options.zero_velocity;
+    if (!z.enabled) return false;
+    // The mean turn rate (a vibrating vehicle, motors running on the ground, has a noisy IMU but
+    // no mean rotation).
+    const std::vector<ImuSample> samples = ImuBetween(prev.state.t_ns, kf.state.t_ns);
+    if (samples.size() < 3) return false;
+    Vec3 g_mean = Vec3::Zero();
+    for (const ImuSample& s : samples) g_mean += s.gyro;
+    g_mean /= static_cast<double>(samples.size());
+    if ((g_mean - prev.state.gyro_bias()).norm() > z.max_turn_rate) return false;
+    int shared = 0;
+    for (const ObjectObservation& o : kf.observations) {
+      for (const ObjectObservation& p : prev.observations) {
+        if (p.object_id != o.object_id) continue;
+        double d = 0.0;
+        for (int j = 0; j < 4; ++j) d += (o.corners[j] - p.corners[j]).norm() / 4.0;
+        if (d > z.max_disparity_px) return false;
+        ++shared;
+      }
+    }
+    return shared > 0;
+  }
+
+  ceres::CostFunction* MakeZeroVelocityPrior(const Keyframe& kf) const {
+    Eigen::Matrix<double, 9, 1> still, sigma;
+    still << Vec3::Zero(), kf.state.gyro_bias(), kf.state.acc_bias();
+    sigma << Vec3::Constant(options.zero_velocity.velocity_sigma), Vec3::Constant(1e6),
+        Vec3::Constant(1e6);  // the biases are free
+    return new SpeedBiasPrior(still, sigma);
   }
 
   // Removes the newest frame (not a keyframe) from the window: its pose was reported, its
@@ -943,8 +991,12 @@ struct Estimator::Impl {
     for (size_t i = window_begin; i < n; ++i) AddStateBlocks(&problem, keyframes[i].get());
     for (size_t i = window_begin + 1; i < n; ++i)
       if (!keyframes[i]->gauge) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
-    for (size_t i = window_begin; i < n; ++i)
+    for (size_t i = window_begin; i < n; ++i) {
       if (keyframes[i]->gauge) AddGaugePriors(&problem, keyframes[i].get());
+      if (keyframes[i]->still)
+        problem.AddResidualBlock(MakeZeroVelocityPrior(*keyframes[i]), nullptr,
+                                 keyframes[i]->state.speed_bias);
+    }
     if (FixedBoundary() && window_begin > 0 && !keyframes[window_begin]->gauge) {
       // The keyframe before the window, held at its estimate, with its IMU link into the window.
       Keyframe* boundary = keyframes[window_begin - 1].get();
@@ -1095,6 +1147,7 @@ struct Estimator::Impl {
       add(MakeGaugePosePrior(*old->gauge), nullptr, {old->state.pose});
       add(MakeGaugeBiasPrior(*old->gauge), nullptr, {old->state.speed_bias});
     }
+    if (old->still) add(MakeZeroVelocityPrior(*old), nullptr, {old->state.speed_bias});
     if (prior) {
       for (size_t b = 0; b < prior->blocks.size(); ++b)
         manifolds[prior->blocks[b]] = prior->manifolds[b];
@@ -1121,8 +1174,11 @@ struct Estimator::Impl {
     for (auto& kf : *kfs) AddStateBlocks(problem, kf.get());
     for (size_t i = 1; i < kfs->size(); ++i)
       if (!(*kfs)[i]->gauge) AddImuFactor(problem, (*kfs)[i - 1].get(), (*kfs)[i].get());
-    for (auto& kf : *kfs)
+    for (auto& kf : *kfs) {
       if (kf->gauge) AddGaugePriors(problem, kf.get());
+      if (kf->still)
+        problem->AddResidualBlock(MakeZeroVelocityPrior(*kf), nullptr, kf->state.speed_bias);
+    }
     for (auto& kf : *kfs) {
       for (const ObjectObservation& o : kf->observations) {
         // Views from before an object's first_seen belong to an earlier instance of its id (a

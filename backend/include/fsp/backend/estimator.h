@@ -124,6 +124,23 @@ struct GlobalOptions {
   bool Check(std::string* why) const;
 };
 
+// Zero-velocity detection (backend/README.md, "Standing still"): a keyframe that did not turn since
+// the previous keyframe and whose objects did not move in the image gets a zero-velocity prior, so
+// that a vehicle standing still does not drift on the IMU's noise.
+struct ZeroVelocityOptions {
+  bool enabled = true;
+  // The mean turn rate since the previous keyframe, without the estimated gyroscope bias, is
+  // below this (the IMU's spread is not a test: on the ground with motors running a vehicle
+  // vibrates, EuRoC V1_01: accelerometer std 0.6-2 m/s^2) [rad/s].
+  double max_turn_rate = 0.02;
+  // Every object seen by both keyframes moved less than this (mean corner displacement) [px]; a
+  // keyframe that shares no object with the previous one is never taken as still (a smooth flight
+  // at constant velocity has a still IMU too).
+  double max_disparity_px = 0.5;
+  double velocity_sigma = 0.01;  // σ of the zero-velocity prior [m/s]
+  bool Check(std::string* why) const;
+};
+
 struct EstimatorOptions {
   EstimatorMode mode = EstimatorMode::kWindow;
   LandmarkType landmarks = LandmarkType::kFsp;
@@ -187,6 +204,7 @@ struct EstimatorOptions {
   int min_observations = 3;
   FaultOptions faults;
   GlobalOptions global;
+  ZeroVelocityOptions zero_velocity;
   bool Check(std::string* why) const;
 };
 
@@ -214,6 +232,7 @@ struct EstimatorSummary {
       0;  // window: objects seen again after leaving the window, started afresh
   int marginalizations = 0;
   int marginalization_failures = 0;  // Schur complement failed: the prior was dropped
+  int zero_velocity_keyframes = 0;   // keyframes found standing still (ZeroVelocityOptions)
   std::vector<double>
       backend_ms;               // wall time of each frame's update (solve + marginalisation) [ms]
   double batch_solve_ms = 0.0;  // the final full solve (batch mode) [ms]
