@@ -96,4 +96,39 @@ std::vector<Quad> FindQuads(const SegmentJunctions& ends, double min_side, int m
   return quads;
 }
 
+std::vector<Quad> FindDoorQuads(const std::vector<Seg>& segs, const SegmentJunctions& ends,
+                                const RectDetectorOptions& o, int rows, double min_side) {
+  std::vector<Quad> quads;
+  const double min_height = o.door_min_height_frac * rows;
+  const double cos_vertical = std::cos(o.door_max_tilt_deg * M_PI / 180.0);
+  auto vertical = [&](const Seg& s) { return std::abs(s.dir.y()) >= cos_vertical; };
+  const int ns = static_cast<int>(segs.size());
+  for (int t = 0; t < ns; ++t) {
+    const Seg& top = segs[t];
+    if (std::abs(top.dir.x()) < std::abs(top.dir.y())) continue;  // the lintel: near-horizontal
+    for (const Junction& jl : ends[t][0])
+      for (const Junction& jr : ends[t][1]) {
+        if (jl.seg == jr.seg) continue;
+        // Left and right jambs hanging down from the lintel's two ends: long, near-vertical, their
+        // free ends below the junctions.
+        const Seg& a = segs[jl.seg];
+        const Seg& b = segs[jr.seg];
+        if (!vertical(a) || !vertical(b) || a.len < min_height || b.len < min_height) continue;
+        const Vec2 fa = jl.end == 0 ? a.b : a.a;  // free ends
+        const Vec2 fb = jr.end == 0 ? b.b : b.a;
+        if (fa.y() - jl.x.y() < min_height || fb.y() - jr.x.y() < min_height) continue;
+        // The bottom: the line through the free ends (refinement looks for its edge there and
+        // keeps that line when there is none: a door's bottom in shadow, on a dark floor).
+        Quad q;
+        q.c = {jl.x, jr.x, fb, fa};
+        q.seg = {jl.seg, t, jr.seg, -1};
+        q.weak_side = 3;
+        if (!IsConvex(q.c) || ShortestSide(q.c) < min_side) continue;
+        quads.push_back(q);
+        if (static_cast<int>(quads.size()) >= o.max_hypotheses) return quads;
+      }
+  }
+  return quads;
+}
+
 }  // namespace fsp::frontend::rect_internal
