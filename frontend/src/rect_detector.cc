@@ -58,6 +58,7 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (!(door_rule_max_overlap >= 0.0)) os << "door_rule_max_overlap must be >= 0; ";
   if (!(door_max_tilt_deg > 0.0 && door_max_tilt_deg < 90.0))
     os << "door_max_tilt_deg must be in (0, 90); ";
+  if (!(door_jamb_gap_frac >= 0.0)) os << "door_jamb_gap_frac must be >= 0; ";
   if (!(door_min_height_frac >= 0.0)) os << "door_min_height_frac must be >= 0; ";
   if (!(door_min_aspect >= 0.0 && door_max_aspect >= door_min_aspect))
     os << "door_min_aspect must be >= 0 and <= door_max_aspect; ";
@@ -123,7 +124,7 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   // takes a stretch of it, leaving short pieces of a long side that merging joins again.
   const int min_seg = ri::MinSegmentPx(o, diag);
   const int min_piece = std::max(6, min_seg / 3);
-  const std::vector<ri::Seg> segs =
+  std::vector<ri::Seg> segs =
       ri::BuildSegments(ri::TracePieces(edges.edges, min_piece, o.segment_fit_px), edges.smooth,
                         cam, o, diag, min_seg);
   res.segments = static_cast<int>(segs.size());
@@ -140,7 +141,26 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   const ri::SegmentJunctions junctions = ri::FindJunctions(segs, o);
   std::vector<ri::Quad> quads = ri::FindQuads(junctions, probe_side, o.max_hypotheses);
   if (o.door_hypotheses && o.door_reach_failures_allowed > o.reach_failures_allowed) {
-    const std::vector<ri::Quad> doors = ri::FindDoorQuads(segs, junctions, o, gray.rows, min_side);
+    // Jambs broken by handles, hinges, hardware or low contrast: the near-vertical straight
+    // segments merged again with a gap of up to `door_jamb_gap_frac` of the diagonal; the new
+    // merged lines are appended to the segments (the others keep their indices) and door
+    // hypotheses are built from all of them.
+    const double cos_vertical = std::cos(o.door_max_tilt_deg * M_PI / 180.0);
+    std::vector<ri::Seg> vertical;
+    for (const ri::Seg& sg : segs)
+      if (sg.path.empty() && std::abs(sg.dir.y()) >= cos_vertical) vertical.push_back(sg);
+    const size_t n_before = segs.size();
+    for (const ri::Seg& j : ri::MergeCollinear(vertical, o.merge_angle_deg, o.merge_line_px,
+                                               o.door_jamb_gap_frac * diag)) {
+      if (j.len < o.door_min_height_frac * gray.rows) continue;
+      bool known = false;
+      for (const ri::Seg& v : vertical)
+        known = known || ((v.a - j.a).squaredNorm() < 1e-6 && (v.b - j.b).squaredNorm() < 1e-6);
+      if (!known) segs.push_back(j);
+    }
+    const std::vector<ri::Quad> doors =
+        ri::FindDoorQuads(segs, segs.size() > n_before ? ri::FindJunctions(segs, o) : junctions, o,
+                          gray.rows, min_side);
     quads.insert(quads.end(), doors.begin(), doors.end());
   }
   res.hypotheses = static_cast<int>(quads.size());

@@ -155,17 +155,18 @@ double IntersectionArea(const Corners& a, const Corners& b) {
 }
 
 // A quad that passed the L-corner tests only by the door rule (short side ends at its corners)
-// and crosses a quad that passed them without it (overlaps it by more than
+// and crosses a quad that passed them without it or scores higher (overlaps it by more than
 // `door_rule_max_overlap` of the smaller area, neither containing the other) is a variant closed
-// by lines beyond the object's corners (a printed grid's column closed by a line below the
-// grid): the L-cornered quad is the better hypothesis.
+// by lines beyond the object's corners (a printed grid's column closed by a line below the grid;
+// a door closed by a slanted line through its jambs' ends at different heights): the other quad
+// is the better hypothesis.
 std::vector<Quad> DropCrossingDoorRuleQuads(const std::vector<Quad>& quads,
                                             const RectDetectorOptions& o) {
   std::vector<Quad> out;
   for (const Quad& q : quads) {
     bool crossed = false;
     for (const Quad& k : quads) {
-      if (crossed || !q.door_rule || k.door_rule || &k == &q) continue;
+      if (crossed || !q.door_rule || (k.door_rule && k.score <= q.score) || &k == &q) continue;
       if (ContainsWithMargin(k.c, q.c, 2.0) || ContainsWithMargin(q.c, k.c, 2.0)) continue;
       crossed = IntersectionArea(q.c, k.c) > o.door_rule_max_overlap * std::min(q.area, k.area);
     }

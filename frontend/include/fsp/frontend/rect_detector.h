@@ -133,6 +133,9 @@ struct RectDetectorOptions {
   bool door_hypotheses = true;
   double door_max_tilt_deg = 20.0;
   double door_min_height_frac = 0.25;
+  // Largest gap [fraction of the image diagonal] bridged between collinear near-vertical pieces of
+  // a jamb (a handle, hinges, a sign, a shadow across the side) for the door hypotheses.
+  double door_jamb_gap_frac = 0.15;
   // Cap on hypotheses per image (bounds the time on heavy clutter).
   int max_hypotheses = 3000;
 
