@@ -59,6 +59,8 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (!(door_max_tilt_deg > 0.0 && door_max_tilt_deg < 90.0))
     os << "door_max_tilt_deg must be in (0, 90); ";
   if (!(door_jamb_gap_frac >= 0.0)) os << "door_jamb_gap_frac must be >= 0; ";
+  if (!(door_bottom_max_deg >= 0.0 && door_bottom_max_deg < 90.0))
+    os << "door_bottom_max_deg must be in [0, 90); ";
   if (!(door_min_height_frac >= 0.0)) os << "door_min_height_frac must be >= 0; ";
   if (!(door_min_aspect >= 0.0 && door_max_aspect >= door_min_aspect))
     os << "door_min_aspect must be >= 0 and <= door_max_aspect; ";

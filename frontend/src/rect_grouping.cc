@@ -118,13 +118,28 @@ std::vector<Quad> FindDoorQuads(const std::vector<Seg>& segs, const SegmentJunct
         const Vec2 fb = jr.end == 0 ? b.b : b.a;
         if (fa.y() - jl.x.y() < min_height || fb.y() - jr.x.y() < min_height) continue;
         // The bottom: the line through the free ends (refinement looks for its edge there and
-        // keeps that line when there is none: a door's bottom in shadow, on a dark floor).
-        Quad q;
-        q.c = {jl.x, jr.x, fb, fa};
-        q.seg = {jl.seg, t, jr.seg, -1};
-        q.weak_side = 3;
-        if (!IsConvex(q.c) || ShortestSide(q.c) < min_side) continue;
-        quads.push_back(q);
+        // keeps that line when there is none: a door's bottom in shadow, on a dark floor) when it
+        // is within `door_bottom_max_deg` of the lintel's direction (perspective tilts them
+        // apart); and when the free ends are not level with each other (the jambs' edges fade out
+        // at different heights), also the line parallel to the lintel through the lower free end.
+        const Vec2 ut = top.dir;
+        const Vec2 ub = (fb - fa).normalized();
+        const double sin_bottom = std::abs(ub.x() * ut.y() - ub.y() * ut.x());
+        auto add = [&](const Vec2& ca, const Vec2& cb) {
+          Quad q;
+          q.c = {jl.x, jr.x, cb, ca};
+          q.seg = {jl.seg, t, jr.seg, -1};
+          q.weak_side = 3;
+          if (IsConvex(q.c) && ShortestSide(q.c) >= min_side) quads.push_back(q);
+        };
+        if (sin_bottom <= std::sin(o.door_bottom_max_deg * M_PI / 180.0)) add(fa, fb);
+        if (sin_bottom > std::sin(M_PI / 180.0)) {
+          Line bottom;
+          bottom.n = Vec2(-ut.y(), ut.x());
+          bottom.c = bottom.n.dot(fa.y() > fb.y() ? fa : fb);
+          Vec2 ca, cb;
+          if (Intersect(LineOf(a), bottom, &ca) && Intersect(LineOf(b), bottom, &cb)) add(ca, cb);
+        }
         if (static_cast<int>(quads.size()) >= o.max_hypotheses) return quads;
       }
   }

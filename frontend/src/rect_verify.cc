@@ -237,15 +237,8 @@ bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<Sid
     if (c[i].y() > c[lowest].y()) lowest = i;
   for (int i = 0; i < 4; ++i)
     if (i != lowest && (second < 0 || c[i].y() > c[second].y())) second = i;
-  // A side running on past one of the two lowest corners of a door-shaped quad is also allowed by
-  // the door rule: the jambs of a door frame run on to the floor below the leaf, the floor line
-  // or skirting on past the door's bottom corners.
-  auto runs_on = [&](double continuation, int corner) {
-    if (continuation <= o.max_side_continuation) return false;
-    if (!door || (corner != lowest && corner != second)) return true;
-    needs_door_rule = true;
-    return false;
-  };
+  // Continuation past each side's start (P) and end (Q) corner, kept for the door rule.
+  std::array<std::array<double, 2>, 4> cont{};
   int short_ends = 0;  // side ends whose edge does not reach the corner
   for (int side = 0; side < 4; ++side) {
     const Vec2 P = c[(side + 3) % 4], Q = c[side];
@@ -268,9 +261,25 @@ bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<Sid
                         short_ends > o.reach_failures_allowed;
       if (needs_door_rule && (!door || short_ends > o.door_reach_failures_allowed)) return true;
     }
-    if (runs_on(SideContinuation(probe, Q, ue, false, L, edges[side]), side) ||
-        runs_on(SideContinuation(probe, P, -us, true, L, edges[side]), (side + 3) % 4))
-      return true;
+    cont[side] = {SideContinuation(probe, P, -us, true, L, edges[side]),
+                  SideContinuation(probe, Q, ue, false, L, edges[side])};
+    if (!door && std::max(cont[side][0], cont[side][1]) > o.max_side_continuation) return true;
+  }
+  // The door rule for sides running on past a corner of a door-shaped quad: at its two lowest
+  // corners (the jambs of the frame run on to the floor below the leaf, the floor line or skirting
+  // on past the door's bottom corners), and at a top corner where only the more horizontal side
+  // runs on (a lintel or beam running on past the jamb that ends under it), at one top corner only
+  // (a grille's bars closed by a cross bar that runs on at both).
+  int top_run_ons = 0;
+  for (int i = 0; door && i < 4; ++i) {
+    const bool a_runs = cont[i][1] > o.max_side_continuation;            // side i, ending at c[i]
+    const bool b_runs = cont[(i + 1) % 4][0] > o.max_side_continuation;  // side i + 1, from c[i]
+    if (!a_runs && !b_runs) continue;
+    needs_door_rule = true;
+    if (i == lowest || i == second) continue;
+    if (a_runs && b_runs) return true;
+    const Vec2 d = a_runs ? Vec2(c[i] - c[(i + 3) % 4]) : Vec2(c[(i + 1) % 4] - c[i]);
+    if (std::abs(d.x()) <= std::abs(d.y()) || ++top_run_ons > 1) return true;
   }
   if (door_rule) *door_rule = needs_door_rule;
   return false;

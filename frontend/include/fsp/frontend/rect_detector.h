@@ -133,6 +133,10 @@ struct RectDetectorOptions {
   bool door_hypotheses = true;
   double door_max_tilt_deg = 20.0;
   double door_min_height_frac = 0.25;
+  // Largest angle between a door hypothesis' bottom through the jambs' lower ends and its lintel
+  // [deg] (perspective); when those ends are not level, a bottom parallel to the lintel through
+  // the lower end is also tried.
+  double door_bottom_max_deg = 30.0;
   // Largest gap [fraction of the image diagonal] bridged between collinear near-vertical pieces of
   // a jamb (a handle, hinges, a sign, a shadow across the side) for the door hypotheses.
   double door_jamb_gap_frac = 0.15;
