@@ -160,9 +160,9 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
         known = known || ((v.a - j.a).squaredNorm() < 1e-6 && (v.b - j.b).squaredNorm() < 1e-6);
       if (!known) segs.push_back(j);
     }
-    const std::vector<ri::Quad> doors =
-        ri::FindDoorQuads(segs, segs.size() > n_before ? ri::FindJunctions(segs, o) : junctions, o,
-                          gray.rows, min_side);
+    const std::vector<ri::Quad> doors = ri::FindDoorQuads(
+        segs, segs.size() > n_before ? ri::FindJunctions(segs, o, &junctions) : junctions, quads, o,
+        gray.rows, min_side);
     quads.insert(quads.end(), doors.begin(), doors.end());
   }
   res.hypotheses = static_cast<int>(quads.size());

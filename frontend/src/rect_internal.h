@@ -261,7 +261,10 @@ std::vector<Seg> BuildSegments(const std::vector<std::pair<Vec2, Vec2>>& pieces,
 
 // Junctions at each segment's two ends: ends[i][e] lists the segments meeting end e of segment i.
 using SegmentJunctions = std::vector<std::array<std::vector<Junction>, 2>>;
-SegmentJunctions FindJunctions(const std::vector<Seg>& segs, const RectDetectorOptions& o);
+// With `known` (the junctions of the first known->size() segments), only the junctions of the
+// segments appended since are added to a copy of it.
+SegmentJunctions FindJunctions(const std::vector<Seg>& segs, const RectDetectorOptions& o,
+                               const SegmentJunctions* known = nullptr);
 
 // 4-cycles a → b → c → d → a of junctions: convex quads with a shortest side of at least
 // `min_side` px, at most `max_quads` (the cap is checked per first segment).
@@ -271,8 +274,10 @@ std::vector<Quad> FindQuads(const SegmentJunctions& ends, double min_side, int m
 // long near-vertical jamb segment hanging down from each of its ends, closed by the line through
 // the jambs' lower ends; that bottom side is the quad's `weak_side` (refinement keeps the line
 // when it finds no edge there: a door's bottom in shadow or on a dark floor).
+// None on three sides of a quad in `closed` (the grouping's 4-cycles).
 std::vector<Quad> FindDoorQuads(const std::vector<Seg>& segs, const SegmentJunctions& ends,
-                                const RectDetectorOptions& o, int rows, double min_side);
+                                const std::vector<Quad>& closed, const RectDetectorOptions& o,
+                                int rows, double min_side);
 
 // ---- 4. refinement (edge_refine.cc) ----
 
