@@ -277,9 +277,15 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
                           : o.polarity_from_segment ? (sg_side->dir.dot(u) > 0.0 ? -1 : 1)
                                                     : 0;
     if (!SampleSide(probe, sg_side, P, Q, want_sign, min_gradient, &s)) return false;
+    (*side_edges)[side] = SideEdge();
     if (!FitSide(probe, &s, P, Q, u, rng, &start_line[side], &end_line[side], &(*side_edges)[side],
-                 &support_sum))
-      return false;
+                 &support_sum)) {
+      if (side != q->weak_side) return false;
+      // A weak side without edge support keeps the hypothesis' line (and adds no support).
+      start_line[side] = end_line[side] = LineOf(MakeSeg(P, Q));
+      (*side_edges)[side] = SideEdge();
+      (*side_edges)[side].weak = true;
+    }
   }
   // Corner i joins side i (ending there) and side i+1 (starting there).
   Corners c;

@@ -53,10 +53,22 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (!(continuation_step_px >= 0.0)) os << "continuation_step_px must be >= 0; ";
   if (!(max_abs_cos > 0.0 && max_abs_cos <= 1.0)) os << "max_abs_cos must be in (0, 1]; ";
   if (!(max_aspect >= 1.0)) os << "max_aspect must be >= 1; ";
+  if (!(door_leaf_min_area_frac >= 0.0 && door_leaf_min_area_frac <= 1.0))
+    os << "door_leaf_min_area_frac must be in [0, 1]; ";
+  if (!(door_rule_max_overlap >= 0.0)) os << "door_rule_max_overlap must be >= 0; ";
+  if (!(door_max_tilt_deg > 0.0 && door_max_tilt_deg < 90.0))
+    os << "door_max_tilt_deg must be in (0, 90); ";
+  if (!(door_jamb_gap_frac >= 0.0)) os << "door_jamb_gap_frac must be >= 0; ";
+  if (!(door_bottom_max_deg >= 0.0 && door_bottom_max_deg < 90.0))
+    os << "door_bottom_max_deg must be in [0, 90); ";
+  if (!(door_min_height_frac >= 0.0)) os << "door_min_height_frac must be >= 0; ";
+  if (!(door_min_aspect >= 0.0 && door_max_aspect >= door_min_aspect))
+    os << "door_min_aspect must be >= 0 and <= door_max_aspect; ";
   if (detect_long_side < 0) os << "detect_long_side must be >= 0; ";
   if (!(focal_prior_min > 0.0 && focal_prior_max >= focal_prior_min))
     os << "focal_prior_min must be positive and <= focal_prior_max; ";
-  if (reach_failures_allowed < 0 || uncalibrated_reach_failures_allowed < 0)
+  if (reach_failures_allowed < 0 || uncalibrated_reach_failures_allowed < 0 ||
+      door_reach_failures_allowed < 0 || uncalibrated_door_reach_failures_allowed < 0)
     os << "reach_failures_allowed must be >= 0; ";
   if (!(uncalibrated_container_outside_frac >= 0.0))
     os << "uncalibrated_container_outside_frac must be >= 0; ";
@@ -93,6 +105,8 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   if (!camera) {
     uncalibrated.container_outside_frac = options.uncalibrated_container_outside_frac;
     uncalibrated.reach_failures_allowed = options.uncalibrated_reach_failures_allowed;
+    uncalibrated.door_reach_failures_allowed = options.uncalibrated_door_reach_failures_allowed;
+    uncalibrated.prefer_door_leaf = options.uncalibrated_prefer_door_leaf;
   }
   const RectDetectorOptions& o = camera ? options : uncalibrated;
   RectDetector::Result res;
@@ -112,7 +126,7 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   // takes a stretch of it, leaving short pieces of a long side that merging joins again.
   const int min_seg = ri::MinSegmentPx(o, diag);
   const int min_piece = std::max(6, min_seg / 3);
-  const std::vector<ri::Seg> segs =
+  std::vector<ri::Seg> segs =
       ri::BuildSegments(ri::TracePieces(edges.edges, min_piece, o.segment_fit_px), edges.smooth,
                         cam, o, diag, min_seg);
   res.segments = static_cast<int>(segs.size());
@@ -126,8 +140,31 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   const double min_side = o.min_side_frac * diag;
   const double probe_side =
       o.prefer_inner_of_bright_margin ? o.margin_probe_frac * min_side : min_side;
-  std::vector<ri::Quad> quads =
-      ri::FindQuads(ri::FindJunctions(segs, o), probe_side, o.max_hypotheses);
+  const ri::SegmentJunctions junctions = ri::FindJunctions(segs, o);
+  std::vector<ri::Quad> quads = ri::FindQuads(junctions, probe_side, o.max_hypotheses);
+  if (o.door_hypotheses && o.door_reach_failures_allowed > o.reach_failures_allowed) {
+    // Jambs broken by handles, hinges, hardware or low contrast: the near-vertical straight
+    // segments merged again with a gap of up to `door_jamb_gap_frac` of the diagonal; the new
+    // merged lines are appended to the segments (the others keep their indices) and door
+    // hypotheses are built from all of them.
+    const double cos_vertical = std::cos(o.door_max_tilt_deg * M_PI / 180.0);
+    std::vector<ri::Seg> vertical;
+    for (const ri::Seg& sg : segs)
+      if (sg.path.empty() && std::abs(sg.dir.y()) >= cos_vertical) vertical.push_back(sg);
+    const size_t n_before = segs.size();
+    for (const ri::Seg& j : ri::MergeCollinear(vertical, o.merge_angle_deg, o.merge_line_px,
+                                               o.door_jamb_gap_frac * diag)) {
+      if (j.len < o.door_min_height_frac * gray.rows) continue;
+      bool known = false;
+      for (const ri::Seg& v : vertical)
+        known = known || ((v.a - j.a).squaredNorm() < 1e-6 && (v.b - j.b).squaredNorm() < 1e-6);
+      if (!known) segs.push_back(j);
+    }
+    const std::vector<ri::Quad> doors = ri::FindDoorQuads(
+        segs, segs.size() > n_before ? ri::FindJunctions(segs, o, &junctions) : junctions, quads, o,
+        gray.rows, min_side);
+    quads.insert(quads.end(), doors.begin(), doors.end());
+  }
   res.hypotheses = static_cast<int>(quads.size());
   if (o.debug)
     for (const ri::Quad& q : quads) res.hypothesis_quads.push_back(q.c);

@@ -2,6 +2,7 @@
 // 4-cycles of segments joined at junctions.
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 #include "fsp/frontend/rect_geometry.h"
 #include "rect_internal.h"
@@ -28,9 +29,13 @@ int NearEnd(const Seg& s1, const Seg& s2) {
 
 }  // namespace
 
-SegmentJunctions FindJunctions(const std::vector<Seg>& segs, const RectDetectorOptions& o) {
+SegmentJunctions FindJunctions(const std::vector<Seg>& segs, const RectDetectorOptions& o,
+                               const SegmentJunctions* known) {
   const int ns = static_cast<int>(segs.size());
-  SegmentJunctions ends(ns);
+  // With `known` (the junctions of segs[0, first)), only pairs with a segment from `first` on.
+  const int first = known ? static_cast<int>(known->size()) : 0;
+  SegmentJunctions ends = known ? *known : SegmentJunctions();
+  ends.resize(ns);
   std::vector<Line> seg_lines(ns);
   for (int i = 0; i < ns; ++i) seg_lines[i] = LineOf(segs[i]);
   const double min_sin = std::sin(o.min_corner_angle_deg * M_PI / 180.0);
@@ -43,7 +48,7 @@ SegmentJunctions FindJunctions(const std::vector<Seg>& segs, const RectDetectorO
   std::vector<SegEnds> se(ns);
   for (int i = 0; i < ns; ++i) se[i] = {segs[i].a, segs[i].b, segs[i].dir, segs[i].len};
   for (int i = 0; i < ns; ++i)
-    for (int j = i + 1; j < ns; ++j) {
+    for (int j = std::max(i + 1, first); j < ns; ++j) {
       const SegEnds &si = se[i], &sj = se[j];
       const double s = std::abs(si.dir.x() * sj.dir.y() - si.dir.y() * sj.dir.x());
       if (s < min_sin) continue;
@@ -93,6 +98,92 @@ std::vector<Quad> FindQuads(const SegmentJunctions& ends, double min_side, int m
         }
       }
     }
+  return quads;
+}
+
+std::vector<Quad> FindDoorQuads(const std::vector<Seg>& segs, const SegmentJunctions& ends,
+                                const std::vector<Quad>& closed, const RectDetectorOptions& o,
+                                int rows, double min_side) {
+  std::vector<Quad> quads;
+  // Three consecutive sides of the closed quads of the grouping: no door hypothesis on them (the
+  // closed quad has a bottom with an edge).
+  std::set<std::array<int, 3>> closed_triples;
+  for (const Quad& q : closed)
+    for (int i = 0; i < 4; ++i) {
+      const int x = q.seg[i], y = q.seg[(i + 1) % 4], z = q.seg[(i + 2) % 4];
+      closed_triples.insert({std::min(x, z), y, std::max(x, z)});
+    }
+  const double min_height = o.door_min_height_frac * rows;
+  const double cos_vertical = std::cos(o.door_max_tilt_deg * M_PI / 180.0);
+  auto vertical = [&](const Seg& s) { return std::abs(s.dir.y()) >= cos_vertical; };
+  const int ns = static_cast<int>(segs.size());
+  // A jamb piece lying on a longer jamb of the same polarity (the pieces of a jamb bridged by the
+  // gap-tolerant merge) gives no hypothesis of its own: the longer one does.
+  std::vector<char> jamb(ns, 0);
+  for (int i = 0; i < ns; ++i)
+    jamb[i] = segs[i].path.empty() && vertical(segs[i]) && segs[i].len >= min_height;
+  const double cos_merge = std::cos(o.merge_angle_deg * M_PI / 180.0);
+  for (int i = 0; i < ns; ++i)
+    for (int j = 0; j < ns && jamb[i]; ++j) {
+      const Seg &p = segs[i], &l = segs[j];
+      if (j == i || !jamb[j] || l.len <= p.len || p.dir.dot(l.dir) < cos_merge) continue;
+      const Line ll = LineOf(l);
+      const double ta = (p.a - l.a).dot(l.dir), tb = (p.b - l.a).dot(l.dir);
+      if (std::abs(ll.Dist(p.a)) <= o.merge_line_px && std::abs(ll.Dist(p.b)) <= o.merge_line_px &&
+          std::min(ta, tb) >= -o.junction_slack_px &&
+          std::max(ta, tb) <= l.len + o.junction_slack_px)
+        jamb[i] = 2;  // covered: kept as a segment, not as a jamb
+    }
+  for (int t = 0; t < ns; ++t) {
+    const Seg& top = segs[t];
+    if (std::abs(top.dir.x()) < std::abs(top.dir.y())) continue;  // the lintel: near-horizontal
+    for (const Junction& jl : ends[t][0])
+      for (const Junction& jr : ends[t][1]) {
+        if (jl.seg == jr.seg) continue;
+        // Left and right jambs hanging down from the lintel's two ends: long, near-vertical, their
+        // free ends below the junctions.
+        const Seg& a = segs[jl.seg];
+        const Seg& b = segs[jr.seg];
+        if (jamb[jl.seg] != 1 || jamb[jr.seg] != 1 ||
+            closed_triples.count({std::min(jl.seg, jr.seg), t, std::max(jl.seg, jr.seg)}))
+          continue;
+        const Vec2 fa = jl.end == 0 ? a.b : a.a;  // free ends
+        const Vec2 fb = jr.end == 0 ? b.b : b.a;
+        if (fa.y() - jl.x.y() < min_height || fb.y() - jr.x.y() < min_height) continue;
+        // The bottom: the line through the free ends (refinement looks for its edge there and
+        // keeps that line when there is none: a door's bottom in shadow, on a dark floor) when it
+        // is within `door_bottom_max_deg` of the lintel's direction (perspective tilts them
+        // apart); and when the free ends are not level with each other (the jambs' edges fade out
+        // at different heights), also the line parallel to the lintel through the lower free end.
+        const Vec2 ut = top.dir;
+        const Vec2 ub = (fb - fa).normalized();
+        const double sin_bottom = std::abs(ub.x() * ut.y() - ub.y() * ut.x());
+        auto add = [&](const Vec2& ca, const Vec2& cb) {
+          Quad q;
+          q.c = {jl.x, jr.x, cb, ca};
+          q.seg = {jl.seg, t, jr.seg, -1};
+          q.weak_side = 3;
+          if (!IsConvex(q.c) || ShortestSide(q.c) < min_side) return;
+          // Near-duplicates (parallel lintel lines, jambs' ends a pixel apart) are refined once.
+          const double tol = std::max(2.0, o.duplicate_corner_frac * ShortestSide(q.c));
+          for (const Quad& d : quads) {
+            bool same = true;
+            for (int i = 0; i < 4 && same; ++i) same = (d.c[i] - q.c[i]).norm() <= tol;
+            if (same) return;
+          }
+          quads.push_back(q);
+        };
+        if (sin_bottom <= std::sin(o.door_bottom_max_deg * M_PI / 180.0)) add(fa, fb);
+        if (sin_bottom > std::sin(M_PI / 180.0)) {
+          Line bottom;
+          bottom.n = Vec2(-ut.y(), ut.x());
+          bottom.c = bottom.n.dot(fa.y() > fb.y() ? fa : fb);
+          Vec2 ca, cb;
+          if (Intersect(LineOf(a), bottom, &ca) && Intersect(LineOf(b), bottom, &cb)) add(ca, cb);
+        }
+        if (static_cast<int>(quads.size()) >= o.max_hypotheses) return quads;
+      }
+  }
   return quads;
 }
 

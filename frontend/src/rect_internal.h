@@ -121,6 +121,9 @@ struct SideEdge {
   // A curved side (see CurvedChains): its unit directions at c[i-1] and c[i] (towards c[i]).
   bool curved = false;
   Vec2 dir_start = Vec2(1.0, 0.0), dir_end = Vec2(1.0, 0.0);
+  // No edge was found along the side (a quad's `weak_side`): its line is the hypothesis' and it
+  // takes no part in the L-corner tests.
+  bool weak = false;
 };
 
 struct Quad {
@@ -133,6 +136,10 @@ struct Quad {
   double abs_cos = 1.0;
   double aspect_w_h = 1.0;  // metric width / height after canonical ordering
   double area = 0.0;
+  // Passed the L-corner tests only by the door rule (RectDetectorOptions::door_reach_failures_*).
+  bool door_rule = false;
+  // A side that may lack edge support (a door hypothesis' bottom, see FindDoorQuads); -1: none.
+  int weak_side = -1;
 };
 
 // One sub-pixel edge point: the 1-D gradient peak on the (smoothed, distorted) image along the
@@ -254,11 +261,23 @@ std::vector<Seg> BuildSegments(const std::vector<std::pair<Vec2, Vec2>>& pieces,
 
 // Junctions at each segment's two ends: ends[i][e] lists the segments meeting end e of segment i.
 using SegmentJunctions = std::vector<std::array<std::vector<Junction>, 2>>;
-SegmentJunctions FindJunctions(const std::vector<Seg>& segs, const RectDetectorOptions& o);
+// With `known` (the junctions of the first known->size() segments), only the junctions of the
+// segments appended since are added to a copy of it.
+SegmentJunctions FindJunctions(const std::vector<Seg>& segs, const RectDetectorOptions& o,
+                               const SegmentJunctions* known = nullptr);
 
 // 4-cycles a → b → c → d → a of junctions: convex quads with a shortest side of at least
 // `min_side` px, at most `max_quads` (the cap is checked per first segment).
 std::vector<Quad> FindQuads(const SegmentJunctions& ends, double min_side, int max_quads);
+
+// Door hypotheses (RectDetectorOptions::door_hypotheses): a near-horizontal lintel segment with a
+// long near-vertical jamb segment hanging down from each of its ends, closed by the line through
+// the jambs' lower ends; that bottom side is the quad's `weak_side` (refinement keeps the line
+// when it finds no edge there: a door's bottom in shadow or on a dark floor).
+// None on three sides of a quad in `closed` (the grouping's 4-cycles).
+std::vector<Quad> FindDoorQuads(const std::vector<Seg>& segs, const SegmentJunctions& ends,
+                                const std::vector<Quad>& closed, const RectDetectorOptions& o,
+                                int rows, double min_side);
 
 // ---- 4. refinement (edge_refine.cc) ----
 
@@ -280,9 +299,15 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
 // Farthest distance of a corner (undistorted px) outside the image [px, distorted]; 0 inside.
 double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int rows);
 
-bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges);
+// Whether a verified quad (canonical order, metric aspect set) has a door's shape: metric height /
+// width in [door_min_aspect, door_max_aspect].
+bool IsDoorShaped(const RectDetectorOptions& o, const Quad& q);
+// Some corner is not an L-corner. `door_shaped` allows the door rule (door_reach_failures_allowed);
+// `door_rule` (optional) tells whether the quad passed only by it.
+bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges,
+                  bool door_shaped = false, bool* door_rule = nullptr);
 // Every corner an L-corner (true when the L-corner tests are switched off).
-bool IsLCornered(const EdgeProbe& probe, const Quad& q);
+bool IsLCornered(const EdgeProbe& probe, const Quad& q, bool* door_rule = nullptr);
 bool IsBrightMargin(const cv::Mat& smooth, const PinholeRadtan* cam, const Corners& outer,
                     const Corners& inner, const RectDetectorOptions& o);
 

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/imgproc.hpp>
+
 #include "fsp/frontend/rect_geometry.h"
 #include "rect_internal.h"
 
@@ -49,6 +51,13 @@ Verdict Compare(const Quad& q, const Quad& k, const EdgeProbe& probe) {
     if (o.prefer_inner_of_bright_margin &&
         IsBrightMargin(probe.smooth, probe.cam, outer.c, inner.c, o))
       return &inner == &q ? Verdict::kReplace : Verdict::kDrop;
+    // Door leaf rule: a door-shaped inner outline is the door leaf inside its frame or
+    // architrave; it is reported unless clearly worse supported.
+    if (o.prefer_door_leaf && IsDoorShaped(o, inner)) {
+      if (&inner == &q)
+        return q.score >= k.score - o.nest_score_margin ? Verdict::kReplace : Verdict::kDrop;
+      return k.score >= q.score - o.nest_score_margin ? Verdict::kDrop : Verdict::kReplace;
+    }
     // The new one is the outer outline: it replaces the kept inner one unless clearly worse
     // supported (a box's side face seen at an angle gives a weaker outer edge than its front).
     return &outer == &q && q.score >= k.score - o.nest_score_margin ? Verdict::kReplace
@@ -84,11 +93,11 @@ std::vector<Quad> KeepBestOutlines(std::vector<Quad> good, const EdgeProbe& prob
       break;
     }
     if (drop && !replace) continue;
-    if (!IsLCornered(probe, q)) continue;  // as if it had never been found
-    if (replace)
-      *replace = q;
-    else
-      kept.push_back(q);
+    bool door_rule = false;
+    if (!IsLCornered(probe, q, &door_rule)) continue;  // as if it had never been found
+    Quad& slot = replace ? *replace : kept.emplace_back();
+    slot = q;
+    slot.door_rule = door_rule;
   }
   return kept;
 }
@@ -135,6 +144,56 @@ std::vector<Quad> DropContained(const std::vector<Quad>& unique, const std::vect
   return outer_only;
 }
 
+// Area of the intersection of two convex quads [px^2].
+double IntersectionArea(const Corners& a, const Corners& b) {
+  std::vector<cv::Point2f> pa, pb, inter;
+  for (int i = 0; i < 4; ++i) {
+    pa.emplace_back(static_cast<float>(a[i].x()), static_cast<float>(a[i].y()));
+    pb.emplace_back(static_cast<float>(b[i].x()), static_cast<float>(b[i].y()));
+  }
+  return std::max(0.0, static_cast<double>(cv::intersectConvexConvex(pa, pb, inter, true)));
+}
+
+// A quad that passed the L-corner tests only by the door rule (short side ends at its corners)
+// and crosses a quad that passed them without it or scores higher (overlaps it by more than
+// `door_rule_max_overlap` of the smaller area, neither containing the other) is a variant closed
+// by lines beyond the object's corners (a printed grid's column closed by a line below the grid;
+// a door closed by a slanted line through its jambs' ends at different heights): the other quad
+// is the better hypothesis.
+std::vector<Quad> DropCrossingDoorRuleQuads(const std::vector<Quad>& quads,
+                                            const RectDetectorOptions& o) {
+  std::vector<Quad> out;
+  for (const Quad& q : quads) {
+    bool crossed = false;
+    for (const Quad& k : quads) {
+      if (crossed || !q.door_rule || (k.door_rule && k.score <= q.score) || &k == &q) continue;
+      if (ContainsWithMargin(k.c, q.c, 2.0) || ContainsWithMargin(q.c, k.c, 2.0)) continue;
+      crossed = IntersectionArea(q.c, k.c) > o.door_rule_max_overlap * std::min(q.area, k.area);
+    }
+    if (!crossed) out.push_back(q);
+  }
+  return out;
+}
+
+// Door leaf rule for outlines that are not concentric (a frame with a transom or a side light):
+// an outline containing a door-shaped quad of at least `door_leaf_min_area_frac` of its area is
+// the frame around the door leaf and is not reported; the leaf is. A leaf that passed the L-corner
+// tests only by the door rule does not displace an outline that passed them without it (a printed
+// grid's columns inside the grid's outline).
+std::vector<Quad> DropFramesAroundLeaves(const std::vector<Quad>& quads,
+                                         const RectDetectorOptions& o) {
+  std::vector<Quad> out;
+  for (const Quad& q : quads) {
+    bool frame = false;
+    for (const Quad& k : quads)
+      frame = frame || (&k != &q && k.area < q.area && (!k.door_rule || q.door_rule) &&
+                        k.area >= o.door_leaf_min_area_frac * q.area && IsDoorShaped(o, k) &&
+                        ContainsWithMargin(q.c, k.c, 2.0));
+    if (!frame) out.push_back(q);
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<Quad> Suppress(const std::vector<Quad>& good, const std::vector<Quad>& cut_off,
@@ -157,6 +216,8 @@ std::vector<Quad> Suppress(const std::vector<Quad>& good, const std::vector<Quad
     for (const Quad& u : unique) dup = dup || CornerDistanceBestShift(q.c, u.c) < 1e-9;
     if (!dup) unique.push_back(q);
   }
+  unique = DropCrossingDoorRuleQuads(unique, o);
+  if (o.prefer_door_leaf) unique = DropFramesAroundLeaves(unique, o);
   if (o.drop_contained) unique = DropContained(unique, cut_off, probe);
   if (o.max_detections > 0 && static_cast<int>(unique.size()) > o.max_detections)
     unique.resize(o.max_detections);

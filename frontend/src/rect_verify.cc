@@ -204,6 +204,11 @@ ObjectClass GuessClass(const cv::Mat& smooth, const Corners& px, double aspect_w
 
 }  // namespace
 
+bool IsDoorShaped(const RectDetectorOptions& o, const Quad& q) {
+  const double h_over_w = 1.0 / q.aspect_w_h;
+  return o.door_min_aspect > 0.0 && h_over_w >= o.door_min_aspect && h_over_w <= o.door_max_aspect;
+}
+
 double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int rows) {
   double outside = 0.0;
   for (const Vec2& x : c) {
@@ -218,38 +223,72 @@ double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int r
 // groove, a mullion or texture crosses it), or a side's edge stops short of it (see CornerReach; a
 // quad closed by a line a little beyond the object, such as the outer edge of a tag's white
 // margin with the black square's other three sides).
-bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges) {
-  int short_ends = 0;  // side ends whose edge does not reach the corner
+bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges,
+                  bool door_shaped, bool* door_rule) {
+  const RectDetectorOptions& o = probe.o;
   // Only the ends at the lowest corner in the image (a door's bottom in shadow, on the floor) may
-  // fail the reach test.
-  int lowest = 0;
+  // fail the reach test, at most `reach_failures_allowed` of them; a door-shaped quad may have up
+  // to `door_reach_failures_allowed` short ends at any corner (`door_rule` then tells whether it
+  // needed that).
+  const bool door = door_shaped && o.door_reach_failures_allowed > o.reach_failures_allowed;
+  bool needs_door_rule = false;
+  int lowest = 0, second = -1;  // the two lowest corners in the image
   for (int i = 1; i < 4; ++i)
     if (c[i].y() > c[lowest].y()) lowest = i;
+  for (int i = 0; i < 4; ++i)
+    if (i != lowest && (second < 0 || c[i].y() > c[second].y())) second = i;
+  // Continuation past each side's start (P) and end (Q) corner, kept for the door rule.
+  std::array<std::array<double, 2>, 4> cont{};
+  int short_ends = 0;  // side ends whose edge does not reach the corner
   for (int side = 0; side < 4; ++side) {
     const Vec2 P = c[(side + 3) % 4], Q = c[side];
     const double L = (Q - P).norm();
     const Vec2 u = (Q - P) / L;
     const Vec2 us = edges[side].curved ? edges[side].dir_start : u;
     const Vec2 ue = edges[side].curved ? edges[side].dir_end : u;
-    if (probe.o.min_corner_reach > 0.0) {
-      const bool q_short =
-          CornerReach(probe, Q, -ue, true, L, edges[side]) < probe.o.min_corner_reach;
-      const bool p_short =
-          CornerReach(probe, P, us, false, L, edges[side]) < probe.o.min_corner_reach;
-      if ((q_short && side != lowest) || (p_short && (side + 3) % 4 != lowest)) return true;
-      short_ends += q_short + p_short;
-      if (short_ends > probe.o.reach_failures_allowed) return true;
+    if (edges[side].weak) {
+      // No edge along this side (a door hypothesis' bottom): only the door rule accepts it.
+      if (!door) return true;
+      needs_door_rule = true;
+      continue;
     }
-    if (SideContinuation(probe, Q, ue, false, L, edges[side]) > probe.o.max_side_continuation ||
-        SideContinuation(probe, P, -us, true, L, edges[side]) > probe.o.max_side_continuation)
-      return true;
+    if (o.min_corner_reach > 0.0) {
+      const bool q_short = CornerReach(probe, Q, -ue, true, L, edges[side]) < o.min_corner_reach;
+      const bool p_short = CornerReach(probe, P, us, false, L, edges[side]) < o.min_corner_reach;
+      short_ends += q_short + p_short;
+      needs_door_rule = needs_door_rule || (q_short && side != lowest) ||
+                        (p_short && (side + 3) % 4 != lowest) ||
+                        short_ends > o.reach_failures_allowed;
+      if (needs_door_rule && (!door || short_ends > o.door_reach_failures_allowed)) return true;
+    }
+    cont[side] = {SideContinuation(probe, P, -us, true, L, edges[side]),
+                  SideContinuation(probe, Q, ue, false, L, edges[side])};
+    if (!door && std::max(cont[side][0], cont[side][1]) > o.max_side_continuation) return true;
   }
+  // The door rule for sides running on past a corner of a door-shaped quad: at its two lowest
+  // corners (the jambs of the frame run on to the floor below the leaf, the floor line or skirting
+  // on past the door's bottom corners), and at a top corner where only the more horizontal side
+  // runs on (a lintel or beam running on past the jamb that ends under it), at one top corner only
+  // (a grille's bars closed by a cross bar that runs on at both).
+  int top_run_ons = 0;
+  for (int i = 0; door && i < 4; ++i) {
+    const bool a_runs = cont[i][1] > o.max_side_continuation;            // side i, ending at c[i]
+    const bool b_runs = cont[(i + 1) % 4][0] > o.max_side_continuation;  // side i + 1, from c[i]
+    if (!a_runs && !b_runs) continue;
+    needs_door_rule = true;
+    if (i == lowest || i == second) continue;
+    if (a_runs && b_runs) return true;
+    const Vec2 d = a_runs ? Vec2(c[i] - c[(i + 3) % 4]) : Vec2(c[(i + 1) % 4] - c[i]);
+    if (std::abs(d.x()) <= std::abs(d.y()) || ++top_run_ons > 1) return true;
+  }
+  if (door_rule) *door_rule = needs_door_rule;
   return false;
 }
 
-bool IsLCornered(const EdgeProbe& probe, const Quad& q) {
+bool IsLCornered(const EdgeProbe& probe, const Quad& q, bool* door_rule) {
+  if (door_rule) *door_rule = false;
   return !(probe.o.max_side_continuation < 1.0 || probe.o.min_corner_reach > 0.0) ||
-         !HasTJunction(probe, q.c_grouping, q.edges);
+         !HasTJunction(probe, q.c_grouping, q.edges, IsDoorShaped(probe.o, q), door_rule);
 }
 
 // Bright margin test (RectDetectorOptions::prefer_inner_of_bright_margin) for an outer quad and a

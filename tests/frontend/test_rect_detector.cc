@@ -407,3 +407,31 @@ TEST(RectDetector, RenderedGoldenFrames) {
 
 }  // namespace
 }  // namespace fsp::frontend
+
+namespace fsp::frontend {
+namespace {
+
+// A dark door leaf on a light wall whose bottom meets a floor as dark as the leaf: three sides of
+// the door have edges, the bottom none (the floor line runs on past the door's bottom corners on
+// either side). Without a calibration the door rule and the door hypotheses report it (lintel + two
+// jambs, the bottom through the jambs' lower ends); with them switched off nothing is reported.
+TEST(RectDetector, DoorWithoutBottomEdgeFoundByDoorHypotheses) {
+  const Corners leaf = {Vec2(250.0, 400.0), Vec2(390.0, 400.0), Vec2(390.0, 80.0),
+                        Vec2(250.0, 80.0)};
+  const Corners floor = {Vec2(-5.0, 484.0), Vec2(644.0, 484.0), Vec2(644.0, 400.0),
+                         Vec2(-5.0, 400.0)};
+  const cv::Mat img = test::RenderQuads(640, 480, {{floor, 40}, {leaf, 44}}, 0.8, 1.5, 3, 170);
+  const auto dets = RectDetector().Detect(img).detections;
+  ASSERT_EQ(dets.size(), 1u);
+  EXPECT_EQ(dets[0].object_class, ObjectClass::kDoor);
+  for (int i = 0; i < 4; ++i)
+    EXPECT_LT((dets[0].corners_px[i] - leaf[i]).norm(), i < 2 ? 4.0 : 1.0)
+        << "s" << i + 1 << ": " << dets[0].corners_px[i].transpose();
+  RectDetector::Options off;
+  off.door_hypotheses = false;
+  off.uncalibrated_door_reach_failures_allowed = 0;
+  EXPECT_TRUE(RectDetector(off).Detect(img).detections.empty());
+}
+
+}  // namespace
+}  // namespace fsp::frontend

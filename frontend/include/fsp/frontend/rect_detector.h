@@ -124,6 +124,22 @@ struct RectDetectorOptions {
   double junction_overshoot_frac = 0.08;
   // Absolute slack of both junction tests [px]: segments stop a pixel or two short of real corners.
   double junction_slack_px = 3.0;
+  // Door hypotheses (only where the door rule applies, see door_reach_failures_allowed): a
+  // near-horizontal lintel segment with a jamb segment hanging down from each of its ends (within
+  // `door_max_tilt_deg` of the image vertical, at least `door_min_height_frac` of the image height
+  // long and below the lintel), closed by the line through the jambs' lower ends even when no edge
+  // is found there (a door's bottom in shadow, on a dark floor or carpet): three sides of a door
+  // are enough.
+  bool door_hypotheses = true;
+  double door_max_tilt_deg = 20.0;
+  double door_min_height_frac = 0.25;
+  // Largest angle between a door hypothesis' bottom through the jambs' lower ends and its lintel
+  // [deg] (perspective); when those ends are not level, a bottom parallel to the lintel through
+  // the lower end is also tried.
+  double door_bottom_max_deg = 30.0;
+  // Largest gap [fraction of the image diagonal] bridged between collinear near-vertical pieces of
+  // a jamb (a handle, hinges, a sign, a shadow across the side) for the door hypotheses.
+  double door_jamb_gap_frac = 0.15;
   // Cap on hypotheses per image (bounds the time on heavy clutter).
   int max_hypotheses = 3000;
 
@@ -181,6 +197,19 @@ struct RectDetectorOptions {
   // corner in the image (a door's bottom in shadow or on a floor line). 0: every side reaches every
   // corner. Without a calibration `uncalibrated_reach_failures_allowed` is used instead.
   int reach_failures_allowed = 0;
+  // A door-shaped quad (metric height / width in [door_min_aspect, door_max_aspect]; 0 switches
+  // this off) may have up to this many side ends fail the corner reach test, at any corner: a door
+  // leaf's edges fade into its frame where the leaf and frame have the same colour, into the
+  // shadow at its bottom, or stop short at hinges. Without a calibration
+  // `uncalibrated_door_reach_failures_allowed` is used instead.
+  int door_reach_failures_allowed = 0;
+  int uncalibrated_door_reach_failures_allowed = 8;
+  double door_min_aspect = 1.6;
+  double door_max_aspect = 3.5;
+  // A quad that passed only by the door rule and overlaps a quad that passed without it by more
+  // than this fraction of the smaller area (neither containing the other) is dropped (a printed
+  // grid's column closed by a line below the grid crosses the grid's outline).
+  double door_rule_max_overlap = 0.3;
   double reach_start_px = 2.0;
   double reach_min_px = 6.0;
   double reach_frac = 0.1;
@@ -263,6 +292,17 @@ struct RectDetectorOptions {
   // panels, the pattern squares of a tag) are dropped. False keeps them (a poster on a door becomes
   // its own object again, but so does every pane).
   bool drop_contained = true;
+  // Door leaf rule: of nested outlines, a door-shaped inner one (see door_min_aspect) is the door
+  // leaf and the outer ones its frame, architrave or the wall opening: the leaf is reported (unless
+  // its score is lower by more than `nest_score_margin`), and so is a door-shaped quad inside a
+  // non-concentric outline (a frame with a transom or side light) when it covers at least
+  // `door_leaf_min_area_frac` of that outline's area (a door's panels cover less).
+  // With a calibration off by default: the rendered room's doors (the simulator's ground truth)
+  // are their outer outline, which the rendered-frame tests pin. Without a calibration (photos)
+  // `uncalibrated_prefer_door_leaf` is used instead.
+  bool prefer_door_leaf = false;
+  bool uncalibrated_prefer_door_leaf = true;
+  double door_leaf_min_area_frac = 0.5;
   // At most this many detections, best score first (0: no limit).
   int max_detections = 0;
 
