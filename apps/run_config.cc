@@ -142,6 +142,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.reid_gate_frac", &f.reid_gate_frac, kNonNegative},
       {"frontend.reid_min_similarity_predicted", &f.reid_min_similarity_predicted, kNonNegative},
       {"frontend.reid_reject_frac", &f.reid_reject_frac, kNonNegative},
+      {"frontend.reid_map_decides", &f.reid_map_decides, kAny},
       {"frontend.correct_px", &f.correct_px, kNonNegative},
       {"frontend.border_margin_px", &f.border_margin_px, kNonNegative},
       {"frontend.tag_scan_every", &f.tag_scan_every, kNonNegative},

@@ -222,7 +222,8 @@ struct FrontEnd::Impl {
     // without it, all four.
     const int orders = prediction.gravity_C ? 1 : 4;
     int best_id = -1;
-    double best_sim = -2.0, second_sim = -2.0;  // best over objects, and the next object's best
+    double best_sim = -2.0, second_sim = -2.0;    // best over objects, and the next object's best
+    bool best_near = false, second_near = false;  // ... predicted at the detection by the map
     for (const auto& [id, info] : objects) {
       if (info.active || !info.confirmed) continue;
       // The back end's prediction: behind the camera or far from the detection, geometry says no;
@@ -234,11 +235,12 @@ struct FrontEnd::Impl {
                        [id = id](const std::pair<int, Corners>& p) { return p.first == id; });
       if (prediction.map_known && predicted == prediction.objects.end()) continue;
       double need = o.reid_min_similarity;
-      bool elsewhere = false;
+      bool elsewhere = false, near = false;
       for (const auto& [pid, pc] : prediction.objects) {
         if (pid != id) continue;
         const double dist = MeanCornerDistanceBestShift(pc, d.corners_undistorted);
-        if (dist <= o.reid_gate_frac * ShortestSide(pc)) need = o.reid_min_similarity_predicted;
+        near = dist <= o.reid_gate_frac * ShortestSide(pc);
+        if (near) need = o.reid_min_similarity_predicted;
         elsewhere = dist > o.reid_reject_frac * ShortestSide(pc);
       }
       if (elsewhere) continue;
@@ -255,16 +257,21 @@ struct FrontEnd::Impl {
       if (object_best < need) continue;
       if (object_best > best_sim) {
         second_sim = best_sim;
+        second_near = best_near;
         best_sim = object_best;
+        best_near = near;
         best_id = id;
         *corners = object_corners;
-      } else {
-        second_sim = std::max(second_sim, object_best);
+      } else if (object_best > second_sim) {
+        second_sim = object_best;
+        second_near = near;
       }
     }
     // Two dormant objects that both look like the detection (a row of identical windows): which one
-    // came back is not known, and a wrong identity would corrupt the map: a new object instead.
-    if (best_id >= 0 && best_sim - second_sim < o.reid_min_margin) return -1;
+    // came back is not known, and a wrong identity would corrupt the map: a new object instead;
+    // unless the map predicts the best one at the detection and the other one not.
+    const bool map_decides = o.reid_map_decides && best_near && !second_near;
+    if (best_id >= 0 && !map_decides && best_sim - second_sim < o.reid_min_margin) return -1;
     return best_id;
   }
 
