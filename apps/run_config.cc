@@ -76,6 +76,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.global.boundary", &e.global.boundary, kAny},
       {"estimator.global.apply_after_keyframes", &e.global.apply_after_keyframes, kNonNegative},
       {"estimator.global.background", &e.global.background, kAny},
+      {"estimator.global.max_free_keyframes", &e.global.max_free_keyframes, kNonNegative},
       {"estimator.global.loop_direct_px", &e.global.loop_direct_px, kNonNegative},
       {"estimator.global.loop_accept_px", &e.global.loop_accept_px, kNonNegative},
       {"estimator.global.budget_m", &e.global.budget_m, kNonNegative},

@@ -124,7 +124,10 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                  {"loops_closed", s.loops_closed},
                  {"loops_prealigned", s.loops_prealigned},
                  {"loops_rejected", s.loops_rejected},
-                 {"objects_reinitialized", s.objects_reinitialized}};
+                 {"objects_reinitialized", s.objects_reinitialized},
+                 // per global solve (the last one is the final solve): its time and its keyframes
+                 {"solve_ms", s.global_ms},
+                 {"solve_keyframes", s.global_keyframes}};
   j["faults"] = {{"imu_gaps", s.imu_gaps},
                  {"imu_gap_max_s", s.imu_gap_max_s},
                  {"imu_gap_links", s.imu_gap_links},

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <deque>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <thread>
@@ -35,12 +36,13 @@ bool FaultOptions::Check(std::string* why) const {
 
 bool GlobalOptions::Check(std::string* why) const {
   const bool ok = every_keyframes >= 1 && max_iterations >= 1 && final_iterations >= 1 &&
-                  apply_after_keyframes >= 0 && loop_direct_px >= 0.0 &&
+                  apply_after_keyframes >= 0 && max_free_keyframes >= 0 && loop_direct_px >= 0.0 &&
                   loop_accept_px >= loop_direct_px && budget_m >= 0.0 && budget_per_m >= 0.0 &&
                   budget_yaw_deg >= 0.0 && budget_yaw_per_m >= 0.0;
   if (why)
     *why = ok ? ""
-              : "every_keyframes and the iterations must be >= 1, apply_after_keyframes >= 0, 0 "
+              : "every_keyframes and the iterations must be >= 1, apply_after_keyframes and "
+                "max_free_keyframes >= 0, 0 "
                 "<= loop_direct_px <= loop_accept_px, budgets >= 0";
   return ok;
 }
@@ -213,6 +215,8 @@ struct Estimator::Impl {
   // now).
   int keyframes_since_global = 0;
   bool loop_pending = false;
+  int loop_from =
+      std::numeric_limits<int>::max();  // oldest keyframe a pending loop reaches back to
   bool finished = false;
   // Fault bookkeeping: the start of the IMU hole last counted, the previous frame's time, the time
   // of the last frame with an observation (or of the first frame).
@@ -607,25 +611,28 @@ struct Estimator::Impl {
   bool CloseLoop(Object* obj, Keyframe* kf, const Corners& corners) {
     const GlobalOptions& g = options.global;
     const std::optional<double> e0 = PredictionError(*obj, CameraPose(*kf), corners);
-    if (e0 && *e0 <= g.loop_direct_px) return AcceptLoop();
+    if (e0 && *e0 <= g.loop_direct_px) return AcceptLoop(*obj);
     // The pre-alignment needs the newest map: a global solve in flight is applied first.
     if (job) {
       ApplyGlobal();
       const std::optional<double> e = PredictionError(*obj, CameraPose(*kf), corners);
-      if (e && *e <= g.loop_direct_px) return AcceptLoop();
+      if (e && *e <= g.loop_direct_px) return AcceptLoop(*obj);
     }
+    const int last_seen = obj->last_seen;
     if (PreAlign(obj, kf, corners)) {
       ++summary.loops_prealigned;
-      return AcceptLoop();
+      return AcceptLoop(*obj, last_seen);
     }
     // Closing a loop of more than a few pixels as it is was measured to be unsafe: small tags
     // accepted at 10 px pulled the default room's global solve into a wrong minimum (ATE 1.6 m).
     ++summary.loops_rejected;
     return false;
   }
-  bool AcceptLoop() {
+  // A loop closed: the next global solve frees the keyframes since the object was last seen.
+  bool AcceptLoop(const Object& obj, int last_seen = -1) {
     ++summary.loops_closed;
     loop_pending = true;
+    loop_from = std::min(loop_from, std::max(0, last_seen >= 0 ? last_seen : obj.last_seen));
     return true;
   }
 
@@ -1169,28 +1176,41 @@ struct Estimator::Impl {
   // and the window's global step). Touches nothing but kfs and objs (a background global solve runs
   // it on copies). Returns why the result is implausible (the checks of Diverged; kfs and objs
   // restored then), empty when it is not.
+  // Keyframes before `free_from` are held at their estimate (GlobalOptions::max_free_keyframes):
+  // only their factors that reach a free state stay in the problem.
   std::string SolveAll(Keyframes* kfs, Objects* objs, int max_iterations, ceres::Solver::Summary* s,
-                       ceres::Problem* problem) {
-    for (auto& kf : *kfs) AddStateBlocks(problem, kf.get());
-    for (size_t i = 1; i < kfs->size(); ++i)
+                       ceres::Problem* problem, size_t free_from = 0) {
+    free_from = std::min(free_from, kfs->size() - 1);
+    const auto is_free = [free_from](const Keyframe* k) {
+      return k->index >= static_cast<int>(free_from);
+    };
+    for (size_t i = free_from; i < kfs->size(); ++i) AddStateBlocks(problem, (*kfs)[i].get());
+    if (free_from > 0) {
+      Keyframe* boundary = (*kfs)[free_from - 1].get();
+      AddStateBlocks(problem, boundary);
+      problem->SetParameterBlockConstant(boundary->state.pose);
+      problem->SetParameterBlockConstant(boundary->state.speed_bias);
+    }
+    for (size_t i = std::max<size_t>(free_from, 1); i < kfs->size(); ++i)
       if (!(*kfs)[i]->gauge) AddImuFactor(problem, (*kfs)[i - 1].get(), (*kfs)[i].get());
-    for (auto& kf : *kfs) {
-      if (kf->gauge) AddGaugePriors(problem, kf.get());
+    for (size_t i = free_from; i < kfs->size(); ++i) {
+      Keyframe* kf = (*kfs)[i].get();
+      if (kf->gauge) AddGaugePriors(problem, kf);
       if (kf->still)
         problem->AddResidualBlock(MakeZeroVelocityPrior(*kf), nullptr, kf->state.speed_bias);
     }
     for (auto& kf : *kfs) {
       for (const ObjectObservation& o : kf->observations) {
         // Views from before an object's first_seen belong to an earlier instance of its id (a
-        // rejected loop, a restart).
+        // rejected loop, a restart); an object no free keyframe saw stays as it is.
         auto it = objs->find(o.object_id);
-        if (it != objs->end() && kf->index >= it->second->first_seen)
-          AddObservation(problem, kf.get(), it->second.get(), o.corners,
-                         [](const Keyframe*) { return true; });
+        if (it != objs->end() && kf->index >= it->second->first_seen &&
+            it->second->last_seen >= static_cast<int>(free_from))
+          AddObservation(problem, kf.get(), it->second.get(), o.corners, is_free);
       }
     }
     AddObjectPriors(problem, objs);
-    const Snapshot before = Save(*kfs, *objs, 0);
+    const Snapshot before = Save(*kfs, *objs, free_from);
     ceres::Solve(SolverOptions(max_iterations), problem, s);
     const std::string diverged = Diverged(*s, before, *kfs);
     if (!diverged.empty()) Restore(before, kfs, objs);
@@ -1248,6 +1268,7 @@ struct Estimator::Impl {
     Objects objs;
     std::map<int, const Object*> originals;  // id -> the instance that was copied
     int apply_at = 0;                        // summary.keyframes at which it is applied
+    size_t free_from = 0;                    // keyframes before it are held
     ceres::Solver::Summary s;
     std::string diverged;
     double ms = 0.0;
@@ -1274,13 +1295,21 @@ struct Estimator::Impl {
       j->objs[id] = std::move(c);
     }
     j->apply_at = summary.keyframes + options.global.apply_after_keyframes;
+    // The free part: the newest max_free_keyframes, and every keyframe since a closed loop's object
+    // was last seen.
+    const int max_free = options.global.max_free_keyframes;
+    size_t free_from = max_free > 0 && n > static_cast<size_t>(max_free) ? n - max_free : 0;
+    free_from = std::min(free_from, static_cast<size_t>(std::max(0, loop_from)));
+    j->free_from = free_from;
     keyframes_since_global = 0;
     loop_pending = false;
+    loop_from = std::numeric_limits<int>::max();
     GlobalJob* w = j.get();
     auto work = [this, w] {
       const auto t0 = Clock::now();
       ceres::Problem problem(ProblemOptions());
-      w->diverged = SolveAll(&w->kfs, &w->objs, options.global.max_iterations, &w->s, &problem);
+      w->diverged =
+          SolveAll(&w->kfs, &w->objs, options.global.max_iterations, &w->s, &problem, w->free_from);
       w->ms = MsSince(t0);
     };
     if (options.global.background)

@@ -104,6 +104,11 @@ struct GlobalOptions {
   // without, inside AddFrame of keyframe k. Both give the same output, byte for byte.
   int apply_after_keyframes = 5;
   bool background = true;
+  // The global solves during the run hold every keyframe older than the newest
+  // max_free_keyframes at its estimate, except the keyframes since a loop's object was last seen
+  // (they are free): so their cost stops growing with the run. 0: every keyframe is free. The final
+  // solve frees every keyframe.
+  int max_free_keyframes = 150;
   WindowBoundary boundary = WindowBoundary::kPrior;
   // A returning object (no window keyframe saw it) predicted within this RMS error of its corners
   // closes its loop as it is; further, the window is first pre-aligned onto the object's map
