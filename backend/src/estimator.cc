@@ -41,9 +41,8 @@ bool GlobalOptions::Check(std::string* why) const {
                   budget_yaw_deg >= 0.0 && budget_yaw_per_m >= 0.0;
   if (why)
     *why = ok ? ""
-              : "every_keyframes and the iterations must be >= 1, apply_after_keyframes and "
-                "max_free_keyframes >= 0, 0 "
-                "<= loop_direct_px <= loop_accept_px, budgets >= 0";
+              : "every_keyframes and the iterations must be >= 1; apply_after_keyframes, "
+                "max_free_keyframes and the budgets >= 0; 0 <= loop_direct_px <= loop_accept_px";
   return ok;
 }
 
@@ -211,8 +210,8 @@ struct Estimator::Impl {
   Rigid3 T_W_B0;            // gauge prior of the first keyframe
   Eigen::Matrix<double, 9, 1> sb0 = Eigen::Matrix<double, 9, 1>::Zero();
   std::shared_ptr<const LinearPrior> prior;  // from the marginalised keyframes
-  // Global step: keyframes added since the last global solve; a loop closed in this frame (solve
-  // now).
+  // Global step: keyframes added since the last global solve was started; a loop closed since (the
+  // next global solve starts as soon as none is in flight) and the oldest keyframe it reaches.
   int keyframes_since_global = 0;
   bool loop_pending = false;
   int loop_from =
@@ -450,8 +449,8 @@ struct Estimator::Impl {
     return false;
   }
 
-  // Whether the vehicle stood still between keyframes `prev` and `kf` (ZeroVelocityOptions): a
-  // still IMU and every object seen by both at the same place in the image.
+  // Whether the vehicle stood still between keyframes `prev` and `kf` (ZeroVelocityOptions): no
+  // mean turn and every object seen by both at the same place in the image.
   bool Still(const Keyframe& prev, const Keyframe& kf) const {
     const ZeroVelocityOptions& z = options.zero_velocity;
     if (!z.enabled) return false;
