@@ -9,6 +9,7 @@
 #include <optional>
 #include <sstream>
 #include <thread>
+#include <tuple>
 #include <unordered_map>
 
 #include <ceres/ceres.h>
@@ -1547,17 +1548,10 @@ std::vector<MapObject> Estimator::Map() const {
     m.object_class = obj->object_class;
     m.observations = obj->observations;
     const Rigid3 T_W_F = d.CameraPose(*obj->anchor);
-    if (d.options.landmarks == LandmarkType::kFsp) {
-      m.corners_W = obj->fsp.CornersW(T_W_F);
-      m.width = obj->fsp.Width();
-      m.height = obj->fsp.Height();
-      m.T_W_O = obj->fsp.T_W_O(T_W_F);
-    } else {
-      m.corners_W = obj->fhp.CornersW(T_W_F);
-      m.width = obj->fhp.Width();
-      m.height = obj->fhp.Height();
-      m.T_W_O = obj->fhp.T_W_O(T_W_F);
-    }
+    m.corners_W = d.options.landmarks == LandmarkType::kFsp ? obj->fsp.CornersW(T_W_F)
+                                                            : obj->fhp.CornersW(T_W_F);
+    std::tie(m.width, m.height) = d.ObjectSize(*obj);
+    m.T_W_O = d.ObjectPose(*obj);
     auto it = d.sigmas.find(obj);
     m.width_sigma = it == d.sigmas.end() ? -1.0 : it->second.first;
     m.height_sigma = it == d.sigmas.end() ? -1.0 : it->second.second;
