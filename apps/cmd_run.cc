@@ -1,6 +1,6 @@
 // fsp run INPUT --out DIR [--calib FILE] [--imu FILE] [--config FILE]
 //         [--frontend rect|apriltag|gt-corners|corners] [--corners FILE] [--objects FILE]
-//         [--landmarks fsp|fhp] [--mode window|batch] [--realtime] [--seed N]
+//         [--landmarks fsp|fhp] [--mode window|batch] [--realtime] [--video FILE] [--seed N]
 // Runs the pipeline on a recording and writes trajectory.tum, map.json, observations.csv and
 // run.json.
 #include <cstdio>
@@ -130,6 +130,9 @@ void AddRunCommand(CLI::App& root) {
   sub->add_flag(
       "--realtime", args->request.realtime,
       "pace the input at its recorded rate and drop frames the pipeline cannot keep up with");
+  sub->add_option("--video", args->request.video,
+                  "also write the run as an annotated video (mp4): each frame with the objects "
+                  "reported, their ids, classes and sizes, and the top view so far");
   sub->add_option("--seed", args->seed,
                   "seed of the front end's pixel noise (overrides the config)");
   sub->add_flag("--print-config", args->print_config,

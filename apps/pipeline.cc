@@ -1,5 +1,7 @@
 #include "pipeline.h"
 
+#include "annotated_video.h"
+
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -128,6 +130,10 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
                  source->imu().empty() ? frame_times.front() : source->imu().front().t_ns);
     pacer.emplace(t_first);
   }
+  std::unique_ptr<AnnotatedVideo> video;
+  if (!request.video.empty())
+    video = std::make_unique<AnnotatedVideo>(request.video, calibration,
+                                             frame_period_ns > 0 ? 1e9 / frame_period_ns : 20.0);
   std::unique_ptr<Progress> progress;
   if (request.progress) progress = std::make_unique<Progress>("run", report.frames);
   int frames_seen = 0;
@@ -172,6 +178,12 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
     frontend_ms.push_back(out.frontend_ms);
     backend_ms.push_back(out.backend_ms);
     for (const ObjectObservation& o : out.observations) produced.push_back(ToCornerRow(o));
+    if (video) {
+      const std::optional<StateSample> latest = slam.Latest();
+      video->Add(frame.image, out.observations, slam.Map(),
+                 latest && out.estimator_initialized ? std::optional<Rigid3>(latest->T_W_B)
+                                                     : std::nullopt);
+    }
     report.observations += static_cast<int>(out.observations.size());
     ++report.frames_processed;
     if (progress) progress->Update(frames_seen);

@@ -21,6 +21,7 @@ struct RunRequest {
   // frame is dropped when the next one is already due by the time the pipeline is ready for it).
   bool realtime = false;
   bool progress = true;  // progress bar on a terminal
+  std::string video;     // --video: the annotated video (AnnotatedVideo), empty for none
 };
 
 // Runs the whole pipeline with CONFIG (mode, landmarks, seed already applied) and writes the

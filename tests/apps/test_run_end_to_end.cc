@@ -15,10 +15,13 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 #include "common/dataset_fixtures.h"
 #include "fsp/common/calibration.h"
 #include "fsp/common/observations_io.h"
 #include "fsp/common/trajectory_io.h"
+
 #include "fsp/eval/evaluate.h"
 #include "fsp/sim/scene.h"
 #include "fsp/sim/sequence_writer.h"
@@ -212,6 +215,39 @@ TEST(RunEndToEnd, NoiseFreeCornersConverge) {
     EXPECT_LT(r.metrics.objects->height_err.max, b.height_max) << b.name;
     EXPECT_LT(r.metrics.objects->corner_err.mean, b.corner_mean) << b.name;
   }
+}
+
+// --video: one annotated frame per input frame, of the camera's size (here from ground-truth
+// corners: no image is decoded, the objects are drawn on a grey canvas); an unwritable path is one
+// clear error.
+TEST(RunEndToEnd, AnnotatedVideoHasEveryFrame) {
+  const fs::path dir = test::ScratchDir();
+  const RunResult r = RunAndEvaluate("--video " + (dir / "annotated.mp4").string(), dir / "run");
+  ASSERT_EQ(r.command.exit_code, 0);
+  cv::VideoCapture video((dir / "annotated.mp4").string());
+  ASSERT_TRUE(video.isOpened());
+  int frames = 0;
+  cv::Mat frame, last;
+  while (video.read(frame)) {
+    ++frames;
+    EXPECT_EQ(frame.cols, 320);
+    EXPECT_EQ(frame.rows, 240);
+    last = frame.clone();
+  }
+  EXPECT_EQ(frames, 200);
+  // The last frame is not the plain canvas: outlines, labels and the top view are drawn on it.
+  ASSERT_FALSE(last.empty());
+  cv::Mat grey;
+  cv::cvtColor(last, grey, cv::COLOR_BGR2GRAY);
+  double lo = 0.0, hi = 0.0;
+  cv::minMaxLoc(grey, &lo, &hi);
+  EXPECT_GT(hi - lo, 100.0);
+
+  const test::CommandResult bad =
+      test::RunFsp("run " + Sequence().string() + " --frontend gt-corners --out " +
+                   (dir / "bad").string() + " --video /nonexistent/x.mp4");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("cannot write the video"), std::string::npos) << bad.err;
 }
 
 TEST(RunEndToEnd, SameSeedSameOutput) {

@@ -172,6 +172,10 @@ std::vector<backend::MapObject> System::Map() const {
   return map;
 }
 
+std::optional<StateSample> System::Latest() const {
+  return impl_->estimator.Latest();
+}
+
 const backend::EstimatorSummary& System::summary() const {
   return impl_->estimator.summary();
 }

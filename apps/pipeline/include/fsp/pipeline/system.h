@@ -65,6 +65,8 @@ class System {
   // What a live user had at each frame (the estimate right after the frame's own update).
   std::vector<StampedPose> CausalTrajectory() const;
   std::vector<backend::MapObject> Map() const;  // classes as the front end named them
+  // The newest frame's estimate (nullopt before the first), O(1).
+  std::optional<StateSample> Latest() const;
   const backend::EstimatorSummary& summary() const;
 
  private:
