@@ -8,28 +8,11 @@
 #include <opencv2/videoio.hpp>
 
 #include "fsp/common/error.h"
+#include "fsp/frontend/draw.h"
 
 namespace fsp::apps {
 
 namespace {
-
-// Colour per class (BGR), as the detector's drawings.
-cv::Scalar ClassColour(ObjectClass c) {
-  switch (c) {
-    case ObjectClass::kDoor:
-      return {40, 90, 170};
-    case ObjectClass::kWindow:
-      return {220, 150, 40};
-    case ObjectClass::kCabinet:
-      return {160, 60, 160};
-    case ObjectClass::kPoster:
-      return {60, 60, 220};
-    case ObjectClass::kTag:
-      return {40, 200, 40};
-    default:
-      return {0, 200, 255};
-  }
-}
 
 cv::Point ToPoint(const Vec2& p) {
   return {static_cast<int>(std::lround(p.x())), static_cast<int>(std::lround(p.y()))};
@@ -72,7 +55,7 @@ void AnnotatedVideo::Add(const cv::Mat& image, const std::vector<ObjectObservati
 
   // The objects of this frame, with their map size when the map holds them.
   for (const ObjectObservation& o : observations) {
-    const cv::Scalar colour = ClassColour(o.object_class);
+    const cv::Scalar colour = frontend::ClassColour(o.object_class);
     std::vector<cv::Point> poly;
     for (const Vec2& c : o.corners) poly.push_back(ToPoint(cam.DistortPixel(c)));
     cv::polylines(out, poly, true, colour, thick, cv::LINE_AA);
@@ -120,8 +103,8 @@ void AnnotatedVideo::Add(const cv::Mat& image, const std::vector<ObjectObservati
                        box.y + static_cast<int>((cy - p.y()) / span * side + side / 2));
     };
     for (const backend::MapObject& m : map)
-      cv::line(out, px(m.corners_W[0]), px(m.corners_W[1]), ClassColour(m.object_class), thick,
-               cv::LINE_AA);
+      cv::line(out, px(m.corners_W[0]), px(m.corners_W[1]), frontend::ClassColour(m.object_class),
+               thick, cv::LINE_AA);
     for (size_t i = 1; i < impl_->trajectory.size(); ++i)
       cv::line(out, px(impl_->trajectory[i - 1]), px(impl_->trajectory[i]), cv::Scalar(60, 60, 230),
                1, cv::LINE_AA);

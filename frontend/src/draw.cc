@@ -7,7 +7,6 @@
 
 namespace fsp::frontend {
 
-namespace {
 cv::Scalar ClassColour(ObjectClass c) {
   switch (c) {
     case ObjectClass::kTag:
@@ -24,7 +23,6 @@ cv::Scalar ClassColour(ObjectClass c) {
       return {0, 255, 255};
   }
 }
-}  // namespace
 
 cv::Mat DrawDetections(const cv::Mat& image, const std::vector<Detection>& detections) {
   cv::Mat out;

@@ -4,10 +4,14 @@
 #include <vector>
 
 #include <opencv2/core/mat.hpp>
+#include <opencv2/core/types.hpp>
 
 #include "fsp/frontend/detection.h"
 
 namespace fsp::frontend {
+
+// The colour (BGR) every drawing uses for an object class.
+cv::Scalar ClassColour(ObjectClass c);
 
 // Returns a BGR copy of `image` (grey or BGR) with each detection's outline (green for tags, colour
 // by class otherwise), its corners numbered 1..4 (s1..s4) and a label "id/class score". Uses
