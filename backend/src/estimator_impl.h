@@ -1,0 +1,647 @@
+// The estimator's state and its parts, shared by the files that implement it (estimator.cc: the
+// window, the batch, marginalisation, faults and the map; estimator_global.cc: the global step and
+// loop closure). Internal: not installed, included by those files only.
+#pragma once
+
+#include "fsp/backend/estimator.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <functional>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <thread>
+#include <tuple>
+#include <unordered_map>
+
+#include <ceres/ceres.h>
+
+#include "fsp/backend/fhp_factor.h"
+#include "fsp/backend/imu_factor.h"
+#include "fsp/backend/manifolds.h"
+#include "fsp/backend/marginalization.h"
+#include "fsp/backend/priors.h"
+#include "fsp/backend/reanchor.h"
+#include "fsp/backend/static_init.h"
+#include "fsp/common/error.h"
+#include "fsp/common/time.h"
+
+namespace fsp::backend {
+
+namespace internal {
+
+using Clock = std::chrono::steady_clock;
+inline double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// The priors that fix a session's gauge at its first keyframe: pose (position and yaw pinned, roll
+// and pitch as well as known) and speed/biases.
+struct Gauge {
+  Rigid3 T_W_B0;
+  double sigma_p = 1e-3, sigma_roll_pitch = 0.02, sigma_yaw = 1e-3;
+  Eigen::Matrix<double, 9, 1> sb0 = Eigen::Matrix<double, 9, 1>::Zero();
+  Eigen::Matrix<double, 9, 1> sigma_sb = Eigen::Matrix<double, 9, 1>::Ones();
+};
+
+struct Keyframe {
+  int index = 0;  // position in Impl::keyframes
+  int frame = 0;  // position in Impl::output (the frame's reported state)
+  // False for a window-mode frame that is solved with the window and dropped when the next frame
+  // arrives (it is always the newest state).
+  bool keyframe = true;
+  KeyframeState state;
+  // Preintegrated IMU from the previous keyframe (null for the first keyframe of a session and
+  // across an IMU gap).
+  std::shared_ptr<ImuPreintegration> preint;
+  // > 0: the IMU has a hole between the previous keyframe and this one, which are linked by the
+  // motion prior over this interval instead [s].
+  double imu_gap_s = 0.0;
+  // Set on the first keyframe of a session (the start, and every restart): no link to the
+  // previous keyframe, its gauge priors instead.
+  std::optional<Gauge> gauge;
+  std::vector<ObjectObservation> observations;
+  // Standing still since the previous keyframe (ZeroVelocityOptions): a zero-velocity prior.
+  bool still = false;
+};
+
+struct Object {
+  int id = -1;
+  ObjectClass object_class = ObjectClass::kUnknown;
+  Keyframe* anchor = nullptr;  // F = camera frame of this keyframe
+  FspLandmark fsp;
+  FhpLandmark fhp;
+  double width_prior_m = 1.0;
+  int observations = 0;
+  int first_seen = -1;  // index of the keyframe that first saw it (its first anchor)
+  int last_seen = -1;   // index of the newest keyframe that saw it
+  // Observations from keyframes that left the window (pose constant), newest last, capped.
+  struct PastView {
+    Keyframe* keyframe;
+    Corners corners;
+  };
+  std::deque<PastView> past;
+};
+
+using Keyframes = std::deque<std::unique_ptr<Keyframe>>;
+using Objects = std::map<int, std::unique_ptr<Object>>;
+
+}  // namespace internal
+
+using namespace internal;
+
+struct Estimator::Impl {
+  Impl(const Calibration& calib, const EstimatorOptions& opts) : calibration(calib), options(opts) {
+    K = calibration.camera.K();
+    T_B_C = calibration.T_B_C;
+    options.imu.noise = calibration.imu;
+  }
+  ~Impl() { DiscardGlobal(); }
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
+
+  Calibration calibration;
+  EstimatorOptions options;
+  Mat3 K;
+  Rigid3 T_B_C;
+  EstimatorSummary summary;
+
+  std::vector<ImuSample> imu;  // all samples (pruned behind the oldest needed time)
+  std::vector<std::pair<int64_t, std::vector<ObjectObservation>>> pending;  // frames before init
+  std::deque<std::unique_ptr<Keyframe>>
+      keyframes;  // every keyframe (window = the last window_size)
+  std::map<int, std::unique_ptr<Object>> objects;
+  // Window mode: the best-observed earlier instance of each re-initialised object (the map reports
+  // whichever instance of an id has more observations).
+  std::map<int, std::unique_ptr<Object>> retired;
+  std::vector<StateSample> output;  // per frame, the state reported for it
+  std::vector<StateSample> causal;  // per frame, its state right after its own update
+  // Frames that were not kept as keyframes: their pose and velocity relative to the keyframe before
+  // them, from their own solve. They are reported relative to that keyframe's final estimate (as
+  // keyframe-based systems write trajectories): reporting their own solve next to keyframes refined
+  // over the whole window made the trajectory jump at every keyframe (0.8 deg, measured).
+  struct Dropped {
+    int frame;
+    const Keyframe* ref;
+    Rigid3 T_ref_B;
+    Vec3 v_ref;  // velocity in the ref body frame
+  };
+  std::vector<Dropped> dropped;
+
+  // A dropped frame's state: its keyframe's estimate moved by the relative pose of the frame's
+  // solve.
+  StateSample Resolve(const Dropped& d) const {
+    const StateSample& ref = output[d.ref->frame];
+    StateSample s = output[d.frame];
+    s.T_W_B = ref.T_W_B * d.T_ref_B;
+    s.v_W = ref.T_W_B.rotation() * d.v_ref;
+    s.gyro_bias = ref.gyro_bias;
+    s.acc_bias = ref.acc_bias;
+    return s;
+  }
+  std::vector<StateSample> Reported() const {
+    std::vector<StateSample> out = output;
+    for (const Dropped& d : dropped) out[d.frame] = Resolve(d);
+    return out;
+  }
+  size_t window_begin = 0;  // index of the oldest keyframe in the window
+  Rigid3 T_W_B0;            // gauge prior of the first keyframe
+  Eigen::Matrix<double, 9, 1> sb0 = Eigen::Matrix<double, 9, 1>::Zero();
+  std::shared_ptr<const LinearPrior> prior;  // from the marginalised keyframes
+  // Global step: keyframes added since the last global solve was started; a loop closed since (the
+  // next global solve starts as soon as none is in flight) and the oldest keyframe it reaches.
+  int keyframes_since_global = 0;
+  bool loop_pending = false;
+  int loop_from =
+      std::numeric_limits<int>::max();  // oldest keyframe a pending loop reaches back to
+  bool finished = false;
+  // Fault bookkeeping: the start of the IMU hole last counted, the previous frame's time, the time
+  // of the last frame with an observation (or of the first frame).
+  int64_t counted_imu_hole_from = -1;
+  std::optional<int64_t> last_frame_t, last_seen_t;
+
+  PoseManifold pose_manifold;
+  ceres::EigenQuaternionManifold quat_manifold;
+
+  // --- IMU -------------------------------------------------------------------------------------
+  std::vector<ImuSample> ImuBetween(int64_t t0, int64_t t1) const {
+    // One sample before t0 and one after t1 so the preintegration can interpolate the boundaries.
+    auto lo = std::lower_bound(imu.begin(), imu.end(), t0,
+                               [](const ImuSample& s, int64_t t) { return s.t_ns < t; });
+    if (lo != imu.begin()) --lo;
+    auto hi = std::upper_bound(imu.begin(), imu.end(), t1,
+                               [](int64_t t, const ImuSample& s) { return t < s.t_ns; });
+    if (hi != imu.end()) ++hi;
+    return std::vector<ImuSample>(lo, hi);
+  }
+
+  // The longest stretch without an IMU sample that the interval [t0, t1] needs: from the last
+  // sample at or before t0 (t0 if none) through the samples inside to the first sample at or after
+  // t1 (t1 when none has arrived yet). [from, to] in ns.
+  std::pair<int64_t, int64_t> LongestImuHole(int64_t t0, int64_t t1) const {
+    auto it = std::upper_bound(imu.begin(), imu.end(), t0,
+                               [](int64_t t, const ImuSample& s) { return t < s.t_ns; });
+    int64_t prev = it == imu.begin() ? t0 : (it - 1)->t_ns;
+    std::pair<int64_t, int64_t> best{prev, prev};
+    while (prev < t1) {
+      const int64_t next = it == imu.end() ? t1 : it->t_ns;
+      if (next - prev > best.second - best.first) best = {prev, next};
+      prev = next;
+      if (it != imu.end()) ++it;
+    }
+    return best;
+  }
+
+  // Frame gaps and stretches without any object in view (counted and warned; `end`: the sequence
+  // ended at t_ns, only the trailing stretch is examined).
+  void NoteFrame(int64_t t_ns, bool sees_objects, bool end = false);
+
+  void Warn(int64_t t_ns, const std::string& what) {
+    if (static_cast<int>(summary.warnings.size()) >= EstimatorSummary::kMaxWarnings) return;
+    char t[32];
+    std::snprintf(t, sizeof(t), "t=%.2f s: ", NsToSeconds(t_ns));
+    summary.warnings.push_back(t + what);
+  }
+
+  // --- Initialisation ----------------------------------------------------------------------------
+  // Returns true once initialised; false while waiting for IMU or after a refusal.
+  bool TryInitialize();
+
+  // --- Keyframes ---------------------------------------------------------------------------------
+  void AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs, const KeyframeState* initial,
+                   const std::optional<Gauge>& gauge = std::nullopt);
+
+  // Window mode: whether a frame is kept as a keyframe. Kept: every keyframe_interval_s, and any
+  // frame that sees an object not in the map or back after leaving the window (it may become the
+  // object's anchor, and only keyframes can be anchors).
+  bool IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const {
+    if (options.mode == EstimatorMode::kBatch || options.keyframe_interval_s <= 0.0) return true;
+    const Keyframe& last = *keyframes.back();  // a keyframe: a non-keyframe newest was just dropped
+    if (static_cast<double>(t_ns - last.state.t_ns) >= options.keyframe_interval_s * 1e9 - 1e6)
+      return true;
+    const int first_in_window = keyframes[window_begin]->index;
+    for (const ObjectObservation& o : obs) {
+      auto it = objects.find(o.object_id);
+      if (it == objects.end() || it->second->last_seen < first_in_window) return true;
+    }
+    return false;
+  }
+
+  // Whether the vehicle stood still between keyframes `prev` and `kf` (ZeroVelocityOptions): no
+  // mean turn and every object seen by both at the same place in the image.
+  bool Still(const Keyframe& prev, const Keyframe& kf) const;
+
+  ceres::CostFunction* MakeZeroVelocityPrior(const Keyframe& kf) const {
+    Eigen::Matrix<double, 9, 1> still, sigma;
+    still << Vec3::Zero(), kf.state.gyro_bias(), kf.state.acc_bias();
+    sigma << Vec3::Constant(options.zero_velocity.velocity_sigma), Vec3::Constant(1e6),
+        Vec3::Constant(1e6);  // the biases are free
+    return new SpeedBiasPrior(still, sigma);
+  }
+
+  // Removes the newest frame (not a keyframe) from the window: its pose was reported, its
+  // observations are forgotten, and the next frame's IMU factor starts at the last keyframe.
+  void DropNewest() {
+    const Keyframe& kf = *keyframes.back();
+    const Keyframe* ref = keyframes[keyframes.size() - 2].get();  // a keyframe (see AddKeyframe)
+    const Rigid3 T_W_ref = ref->state.T_W_B();
+    dropped.push_back({kf.frame, ref, T_W_ref.Inverse() * kf.state.T_W_B(),
+                       T_W_ref.rotation().conjugate() * kf.state.v_W()});
+    for (const ObjectObservation& o : kf.observations) {
+      auto it = objects.find(o.object_id);
+      if (it == objects.end()) continue;
+      --it->second->observations;
+      --summary.observations_used;
+    }
+    keyframes.pop_back();
+  }
+
+  void PruneImu() {
+    const int64_t keep_from = keyframes[window_begin]->state.t_ns;
+    if (options.mode == EstimatorMode::kBatch) return;  // batch re-integrates nothing, but keep all
+    auto it = std::lower_bound(imu.begin(), imu.end(), keep_from,
+                               [](const ImuSample& s, int64_t t) { return s.t_ns < t; });
+    if (it - imu.begin() > 4000) imu.erase(imu.begin(), it - 2);
+  }
+
+  Rigid3 CameraPose(const Keyframe& kf) const { return kf.state.T_W_B() * T_B_C; }
+
+  // Single-view initialisation of objects seen for the first time in `kf`, anchored at it.
+  // Window mode: an object seen again after it left the window (no window keyframe sees it) whose
+  // corners are further than options.reinit_gate_px (RMS) from their prediction in `kf` starts
+  // afresh as well. Its past views hold poses from before the gap fixed, while the trajectory
+  // drifted meanwhile (dead reckoning through stretches without objects): on the default scene the
+  // first re-observations after such a gap were 70-190 px away from their prediction, and forcing
+  // the window to agree with those frozen views made the accelerometer bias absorb the mismatch
+  // (0.1 -> 2 m/s^2) and the estimate diverge (ATE 76 m on 60 s). The window is an odometry;
+  // closing such large loops needs a pose graph that can move the old poses, not a window that
+  // cannot.
+  void InitializeNewObjects(Keyframe* kf);
+
+  // "Up" (−gravity) in the camera frame for classes known to be vertical (single-view
+  // initialisation), nullopt for the others.
+  static std::optional<Vec3> UpDirection(ObjectClass c, const Rigid3& T_W_C) {
+    const bool vertical = c == ObjectClass::kDoor || c == ObjectClass::kWindow ||
+                          c == ObjectClass::kCabinet || c == ObjectClass::kPoster;
+    if (!vertical) return std::nullopt;
+    return T_W_C.rotation().conjugate() * Vec3::UnitZ();
+  }
+
+  // Whether an observation from camera pose T_W_C agrees with the object's estimate: in front and
+  // the RMS corner error (pixels) within options.reinit_gate_px.
+  bool ConsistentWithMap(const Object& obj, const Rigid3& T_W_C, const Corners& corners) const {
+    const std::optional<double> e = PredictionError(obj, T_W_C, corners);
+    return e && *e <= options.reinit_gate_px;
+  }
+
+  // RMS distance [px] between observed corners and the object's prediction from camera pose T_W_C;
+  // nullopt when the object is behind the camera.
+  std::optional<double> PredictionError(const Object& obj, const Rigid3& T_W_C,
+                                        const Corners& corners) const {
+    const Rigid3 T_W_F = CameraPose(*obj.anchor);
+    const CornerPrediction p = options.landmarks == LandmarkType::kFsp
+                                   ? PredictFspCorners(K, T_W_C, T_W_F, obj.fsp)
+                                   : PredictFhpCorners(K, T_W_C, T_W_F, obj.fhp);
+    if (!p.in_front) return std::nullopt;
+    double sum2 = 0.0;
+    for (int j = 0; j < 4; ++j) sum2 += (p.uv[j] - corners[j]).squaredNorm();
+    return std::sqrt(sum2 / 4.0);
+  }
+
+  Rigid3 ObjectPose(const Object& obj) const {
+    const Rigid3 T_W_F = CameraPose(*obj.anchor);
+    return options.landmarks == LandmarkType::kFsp ? obj.fsp.T_W_O(T_W_F) : obj.fhp.T_W_O(T_W_F);
+  }
+  std::pair<double, double> ObjectSize(const Object& obj) const {
+    return options.landmarks == LandmarkType::kFsp ? std::pair{obj.fsp.Width(), obj.fsp.Height()}
+                                                   : std::pair{obj.fhp.Width(), obj.fhp.Height()};
+  }
+
+  // --- Loops (global step) -----------------------------------------------------------------------
+  // An object seen again after it left the window, observed with `corners` from `kf`: keeps its
+  // identity when its loop closes. Close (its prediction within loop_direct_px): the global solve
+  // of this frame closes it. Further: the window is pre-aligned onto the object's map estimate
+  // first (OKVIS2's loop pre-alignment): the camera pose that the corners give with the object's
+  // estimated pose and size (single-view homography, scaled by the map's size) says how far the
+  // window drifted since the object was last seen, in the 4 drift directions (x, y, z, yaw); that
+  // correction is spread over the keyframes since then by distance travelled (the newest moves by
+  // all of it), objects first seen in that stretch move with their anchors, older ones stay where
+  // they are. When the pre-alignment is implausible (beyond the budget) or does not bring the
+  // corners within loop_accept_px of their prediction, the loop is rejected (false; the states
+  // restored) and the object starts afresh as a new instance.
+  bool CloseLoop(Object* obj, Keyframe* kf, const Corners& corners);
+  // A loop closed: the next global solve frees the keyframes since the object was last seen.
+  bool AcceptLoop(const Object& obj, int last_seen = -1);
+
+  // The pre-alignment of CloseLoop; false (states unchanged) when it is implausible or leaves the
+  // corners further than loop_accept_px from their prediction.
+  bool PreAlign(Object* obj, Keyframe* kf, const Corners& corners);
+
+  // Whether the object's depth sits on the box [min_depth_m, max_depth_m] (an FHP corner's, any):
+  // such a depth is not an estimate (no parallax; or, seen in window mode and not yet understood, a
+  // collapse onto the minimum), so neither are its size and place; the map leaves it out.
+  bool AtDepthBound(const Object& obj) const { return !DepthInBox(obj.fsp, obj.fhp); }
+
+  // Whether the depth of s1 (FSP) or of every corner (FHP) lies strictly inside the depth box.
+  bool DepthInBox(const FspLandmark& fsp, const FhpLandmark& fhp) const {
+    const double lo = -std::log(options.max_depth_m), hi = -std::log(options.min_depth_m);
+    const auto inside = [&](double log_omega) {
+      return log_omega > lo + 1e-6 && log_omega < hi - 1e-6;
+    };
+    if (options.landmarks == LandmarkType::kFsp) return inside(fsp.x[kFspLogOmega]);
+    for (const auto& c : fhp.corner)
+      if (!inside(c[2])) return false;
+    return true;
+  }
+
+  // --- Problem construction
+  // ----------------------------------------------------------------------- Adds the factor(s) of
+  // one observation of `obj` from keyframe `kf`. Poses of keyframes that are not variables of this
+  // problem (`is_variable` false: they left the window) enter as constants.
+  void AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj, const Corners& corners,
+                      const std::function<bool(const Keyframe*)>& is_variable);
+
+  // Keeps an inverse depth ω = exp(x[i]) within [1/max_depth, 1/min_depth]: an object with no
+  // parallax yet (hover, far away) must not drift to infinity and drag the trajectory with it. The
+  // current value is clamped into the box first (Ceres requires a feasible start).
+  static void BoundLogParameter(ceres::Problem* problem, double* block, int i, double min_depth,
+                                double max_depth) {
+    const double lo = -std::log(max_depth), hi = -std::log(min_depth);
+    block[i] = std::clamp(block[i], lo, hi);
+    problem->SetParameterLowerBound(block, i, lo);
+    problem->SetParameterUpperBound(block, i, hi);
+  }
+
+  // Observation factors of keyframes [begin, end) and, for every object they see, its past views.
+  // `mature`: only objects seen at least options.mature_views times (they constrain the poses), or
+  // only the others (refined alone with every pose held constant).
+  void AddVisualFactors(ceres::Problem* problem, size_t begin, size_t end, bool mature);
+
+  void AddStateBlocks(ceres::Problem* problem, Keyframe* kf) {
+    problem->AddParameterBlock(kf->state.pose, kPoseSize, &pose_manifold);
+    problem->AddParameterBlock(kf->state.speed_bias, kSpeedBiasSize);
+  }
+
+  void AddImuFactor(ceres::Problem* problem, Keyframe* prev, Keyframe* kf) {
+    if (kf->imu_gap_s > 0.0) {
+      problem->AddResidualBlock(MakeGapPrior(kf->imu_gap_s), nullptr, prev->state.pose,
+                                prev->state.speed_bias, kf->state.pose, kf->state.speed_bias);
+      return;
+    }
+    kf->preint->ReintegrateIfNeeded(prev->state.gyro_bias(), prev->state.acc_bias());
+    problem->AddResidualBlock(new ImuFactor(kf->preint), nullptr, prev->state.pose,
+                              prev->state.speed_bias, kf->state.pose, kf->state.speed_bias);
+  }
+
+  void AddGaugePriors(ceres::Problem* problem, Keyframe* first) {
+    // Position and yaw pinned (gauge); roll/pitch as well known as the start gives them.
+    problem->AddResidualBlock(MakeGaugePosePrior(*first->gauge), nullptr, first->state.pose);
+    problem->AddResidualBlock(MakeGaugeBiasPrior(*first->gauge), nullptr, first->state.speed_bias);
+  }
+  static ceres::CostFunction* MakeGaugePosePrior(const Gauge& g) {
+    return new PosePrior(g.T_W_B0, g.sigma_p, g.sigma_roll_pitch, g.sigma_yaw);
+  }
+  static ceres::CostFunction* MakeGaugeBiasPrior(const Gauge& g) {
+    return new SpeedBiasPrior(g.sb0, g.sigma_sb);
+  }
+  ceres::CostFunction* MakeGapPrior(double dt_s) const {
+    ImuGapPriorOptions o;
+    o.max_acc = options.faults.gap_max_acc;
+    o.max_rate = options.faults.gap_max_rate;
+    o.gyro_walk = options.imu.noise.gyroscope_random_walk;
+    o.acc_walk = options.imu.noise.accelerometer_random_walk;
+    return MakeImuGapPrior(dt_s, o);
+  }
+
+  // --- Faults ------------------------------------------------------------------------------------
+  // The values a solve may change, to restore when its result is rejected.
+  struct Snapshot {
+    size_t begin = 0;
+    std::vector<KeyframeState> states;                         // keyframes [begin, end)
+    std::vector<std::pair<FspLandmark, FhpLandmark>> objects;  // in the order of `objects`
+  };
+  Snapshot Save(size_t begin) const { return Save(keyframes, objects, begin); }
+  static Snapshot Save(const Keyframes& kfs, const Objects& objs, size_t begin) {
+    Snapshot s;
+    s.begin = begin;
+    for (size_t i = begin; i < kfs.size(); ++i) s.states.push_back(kfs[i]->state);
+    for (const auto& [id, obj] : objs) s.objects.emplace_back(obj->fsp, obj->fhp);
+    return s;
+  }
+  void Restore(const Snapshot& s) { Restore(s, &keyframes, &objects); }
+  static void Restore(const Snapshot& s, Keyframes* kfs, Objects* objs) {
+    for (size_t k = 0; k < s.states.size(); ++k) {
+      KeyframeState& st = (*kfs)[s.begin + k]->state;
+      std::copy(s.states[k].pose, s.states[k].pose + kPoseSize, st.pose);
+      std::copy(s.states[k].speed_bias, s.states[k].speed_bias + kSpeedBiasSize, st.speed_bias);
+    }
+    size_t k = 0;
+    for (auto& [id, obj] : *objs) {
+      obj->fsp = s.objects[k].first;
+      obj->fhp = s.objects[k].second;
+      ++k;
+    }
+  }
+
+  // Why a solve's result is implausible (empty when it is not): the solver failed, a state is not
+  // finite, a speed or bias beyond FaultOptions' bounds, a keyframe moved further than max_jump_m.
+  std::string Diverged(const ceres::Solver::Summary& s, const Snapshot& before) const {
+    return Diverged(s, before, keyframes);
+  }
+  std::string Diverged(const ceres::Solver::Summary& s, const Snapshot& before,
+                       const Keyframes& kfs) const;
+
+  // Starts a new session at the newest frame after a rejected solve (its state restored: the
+  // prediction from the last accepted one): the frame becomes a keyframe with fresh gauge priors at
+  // its pose (the trajectory stays continuous), the biases go back to the start's, the velocity is
+  // kept when plausible; the window and its marginalisation prior are dropped, and the objects are
+  // retired (the map keeps their best instances) and start afresh from this frame's views. In
+  // batch mode the session break only cuts the IMU chain (every keyframe stays a variable and the
+  // objects are kept).
+  void Restart(const std::string& why);
+
+  void AddObjectPriors(ceres::Problem* problem) { AddObjectPriors(problem, &objects); }
+  void AddObjectPriors(ceres::Problem* problem, Objects* objs) const {
+    if (options.landmarks != LandmarkType::kFsp) return;
+    for (auto& [id, obj] : *objs) {
+      if (!problem->HasParameterBlock(obj->fsp.x)) continue;
+      problem->AddResidualBlock(
+          new LogWidthPrior(obj->width_prior_m, options.prior_log_omega_sigma), nullptr,
+          obj->fsp.x);
+    }
+  }
+
+  ceres::Problem::Options ProblemOptions() const {
+    ceres::Problem::Options po;
+    po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    po.enable_fast_removal = false;
+    return po;
+  }
+
+  ceres::Solver::Options SolverOptions(int max_iterations) const {
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    so.max_num_iterations = max_iterations;
+    so.num_threads = 1;
+    so.minimizer_progress_to_stdout = false;
+    so.logging_type = ceres::SILENT;
+    so.function_tolerance = 1e-8;
+    so.parameter_tolerance = 1e-10;
+    return so;
+  }
+
+  // Solves the window [window_begin, end): states, IMU factors, gauge priors while the first
+  // keyframe is in it, the marginalisation prior, mature objects' observations and the object
+  // priors. The final solve (finish) iterates longer and computes the map's width/height sigmas;
+  // the per-frame one then refines the young objects alone.
+  void SolveWindow(int max_iterations, bool finish = false);
+
+  // Objects seen fewer than mature_views times are refined on their own with the poses held
+  // constant: a young object's single-view guess (class-prior depth, possibly flipped normal) must
+  // not pull the trajectory before parallax has confirmed it.
+  void RefineYoungObjects(int max_iterations) {
+    ceres::Problem problem(ProblemOptions());
+    AddVisualFactors(&problem, window_begin, keyframes.size(), /*mature=*/false);
+    if (problem.NumResidualBlocks() == 0) return;
+    AddObjectPriors(&problem);
+    ceres::Solver::Summary s;
+    ceres::Solve(SolverOptions(max_iterations), &problem, &s);
+  }
+
+  // --- Marginalisation
+  // ------------------------------------------------------------------------------ Moves the anchor
+  // of every object anchored at `old` to the newest window keyframe with s1 in front.
+  void ReanchorObjectsOf(Keyframe* old);
+
+  static bool Sees(const Keyframe& kf, int object_id) {
+    return std::any_of(
+        kf.observations.begin(), kf.observations.end(),
+        [object_id](const ObjectObservation& o) { return o.object_id == object_id; });
+  }
+
+  bool FixedBoundary() const {
+    return options.global.enabled && options.global.boundary == WindowBoundary::kFixed;
+  }
+
+  void MarginalizeOldest();
+
+  // The inertial information of `old` (its IMU link to `next`, its gauge priors, the previous
+  // prior) into a linear prior on the states that remain.
+  void MarginalizeIntoPrior(Keyframe* old, Keyframe* next);
+
+  // --- Batch
+  // ---------------------------------------------------------------------------------------
+  // Every keyframe of `kfs` and object of `objs` in one problem, solved (the batch's final solve
+  // and the window's global step). Touches nothing but kfs and objs (a background global solve runs
+  // it on copies). Returns why the result is implausible (the checks of Diverged; kfs and objs
+  // restored then), empty when it is not.
+  // Keyframes before `free_from` are held at their estimate (GlobalOptions::max_free_keyframes):
+  // only their factors that reach a free state stay in the problem.
+  std::string SolveAll(Keyframes* kfs, Objects* objs, int max_iterations, ceres::Solver::Summary* s,
+                       ceres::Problem* problem, size_t free_from = 0);
+
+  // SolveAll on the estimator's own keyframes and objects; false (with a warning) when rejected.
+  bool SolveFull(int max_iterations, bool with_sigmas, const char* what, ceres::Solver::Summary* s);
+
+  void SolveBatch() {
+    const auto t0 = Clock::now();
+    ceres::Solver::Summary s;
+    if (!SolveFull(options.batch_max_iterations, /*with_sigmas=*/true, "the final batch solve", &s))
+      ++summary.divergences;
+    summary.batch_solve_ms = MsSince(t0);
+  }
+
+  // Window mode's global step: every keyframe and object, then the window's prior re-centred at
+  // the result (WindowBoundary::kPrior) so that it does not pull the window back.
+  void SolveGlobal(int max_iterations, bool final_solve = false);
+
+  // A global solve in flight (GlobalOptions::apply_after_keyframes, background): it works on copies
+  // of the keyframes and objects, so the window goes on meanwhile.
+  struct GlobalJob {
+    Keyframes kfs;
+    Objects objs;
+    std::map<int, const Object*> originals;  // id -> the instance that was copied
+    int apply_at = 0;                        // summary.keyframes at which it is applied
+    size_t free_from = 0;                    // keyframes before it are held
+    ceres::Solver::Summary s;
+    std::string diverged;
+    double ms = 0.0;
+    std::thread thread;
+  };
+  std::unique_ptr<GlobalJob> job;
+
+  // Copies every keyframe (not a newest frame that is no keyframe: it is dropped later) and object
+  // and solves them, on a thread with `background`, else here.
+  void StartGlobal();
+
+  // Applies the global solve in flight (waiting for it): the keyframes it solved take its values,
+  // the ones added since move rigidly with the newest of them, objects take its values (expressed
+  // at their current anchor when they were re-anchored meanwhile); objects retired meanwhile and
+  // objects new since are left as they are (the new ones move with their anchors).
+  void ApplyGlobal();
+
+  // A restart drops the global solve in flight (its states belong to the session that diverged).
+  void DiscardGlobal();
+
+  // --- Map covariance
+  // -----------------------------------------------------------------------------
+  std::map<const Object*, std::pair<double, double>> sigmas;  // (σ_w, σ_h)
+
+  void ComputeSigmas(ceres::Problem* problem);
+
+  static std::pair<double, double> FspSigmas(const ceres::Covariance& covariance,
+                                             const FspLandmark& l) {
+    double c[25];
+    covariance.GetCovarianceBlock(l.x, l.x, c);
+    Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
+    // log w = log w̄ − log ω;  log h = log w̄ − log f − log ω;  σ_w = w σ_log w.
+    Eigen::Matrix<double, 1, 5> jw = Eigen::Matrix<double, 1, 5>::Zero(), jh = jw;
+    jw[kFspLogWbar] = 1.0;
+    jw[kFspLogOmega] = -1.0;
+    jh = jw;
+    jh[kFspLogForm] = -1.0;
+    return {l.Width() * std::sqrt(std::max(0.0, (jw * C * jw.transpose())(0))),
+            l.Height() * std::sqrt(std::max(0.0, (jh * C * jh.transpose())(0)))};
+  }
+
+  // FHP: w and h are functions of the 12 corner parameters (all in the anchor frame, so the anchor
+  // pose does not enter): σ² = J C Jᵀ with C the joint 12 x 12 covariance and J by central
+  // differences.
+  static std::pair<double, double> FhpSigmas(const ceres::Covariance& covariance,
+                                             const FhpLandmark& l) {
+    Eigen::Matrix<double, 12, 12> C;
+    for (int a = 0; a < 4; ++a)
+      for (int b = a; b < 4; ++b) {
+        double c[9];
+        covariance.GetCovarianceBlock(l.corner[a], l.corner[b], c);
+        const Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Cab(c);
+        C.block<3, 3>(3 * a, 3 * b) = Cab;
+        C.block<3, 3>(3 * b, 3 * a) = Cab.transpose();
+      }
+    Eigen::Matrix<double, 2, 12> J;
+    constexpr double kStep = 1e-6;
+    for (int k = 0; k < 12; ++k) {
+      FhpLandmark plus = l, minus = l;
+      plus.corner[k / 3][k % 3] += kStep;
+      minus.corner[k / 3][k % 3] -= kStep;
+      J(0, k) = (plus.Width() - minus.Width()) / (2.0 * kStep);
+      J(1, k) = (plus.Height() - minus.Height()) / (2.0 * kStep);
+    }
+    const Eigen::Matrix2d S = J * C * J.transpose();
+    return {std::sqrt(std::max(0.0, S(0, 0))), std::sqrt(std::max(0.0, S(1, 1)))};
+  }
+
+  void FinishWindow() {
+    if (keyframes.empty()) return;
+    ApplyGlobal();
+    SolveWindow(options.window_max_iterations * 3, /*finish=*/!options.global.enabled);
+    if (options.global.enabled) SolveGlobal(options.global.final_iterations, /*final_solve=*/true);
+  }
+};
+
+}  // namespace fsp::backend
