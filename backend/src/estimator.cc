@@ -449,22 +449,20 @@ void Estimator::Impl::MarginalizeIntoPrior(Keyframe* old, Keyframe* next) {
   }
 }
 
-void Estimator::Impl::SolveGlobal(int max_iterations, bool final_solve) {
+void Estimator::Impl::SolveGlobalFinal() {
   const auto t0 = Clock::now();
   ceres::Solver::Summary s;
-  const bool ok = SolveFull(max_iterations, final_solve,
-                            final_solve ? "the final global solve" : "a global solve", &s);
-  keyframes_since_global = 0;
-  loop_pending = false;
-  summary.global_ms.push_back(MsSince(t0));
-  summary.global_keyframes.push_back(static_cast<int>(keyframes.size()));
+  const bool ok = SolveFull(options.global.final_iterations, /*with_sigmas=*/true,
+                            "the final global solve", &s);
+  CountGlobal(MsSince(t0), keyframes.size(), s, ok);
+}
+
+void Estimator::Impl::CountGlobal(double ms, size_t keyframes_solved,
+                                  const ceres::Solver::Summary& s, bool accepted) {
+  summary.global_ms.push_back(ms);
+  summary.global_keyframes.push_back(static_cast<int>(keyframes_solved));
   summary.global_iterations += static_cast<int>(s.iterations.size());
-  if (!ok) {
-    ++summary.global_rejected;
-    return;
-  }
-  ++summary.global_solves;
-  if (prior) prior = Recentered(*prior);
+  ++(accepted ? summary.global_solves : summary.global_rejected);
 }
 
 void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {

@@ -18,18 +18,17 @@ namespace fsp::backend {
 // restored) and the object starts afresh as a new instance.
 bool Estimator::Impl::CloseLoop(Object* obj, Keyframe* kf, const Corners& corners) {
   const GlobalOptions& g = options.global;
-  const std::optional<double> e0 = PredictionError(*obj, CameraPose(*kf), corners);
-  if (e0 && *e0 <= g.loop_direct_px) return AcceptLoop(*obj);
+  std::optional<double> error = PredictionError(*obj, CameraPose(*kf), corners);
+  if (error && *error <= g.loop_direct_px) return AcceptLoop(*obj);
   // The pre-alignment needs the newest map: a global solve in flight is applied first.
   if (job) {
     ApplyGlobal();
-    const std::optional<double> e = PredictionError(*obj, CameraPose(*kf), corners);
-    if (e && *e <= g.loop_direct_px) return AcceptLoop(*obj);
+    error = PredictionError(*obj, CameraPose(*kf), corners);
+    if (error && *error <= g.loop_direct_px) return AcceptLoop(*obj);
   }
-  const int last_seen = obj->last_seen;
-  if (PreAlign(obj, kf, corners)) {
+  if (PreAlign(obj, kf, corners, error)) {
     ++summary.loops_prealigned;
-    return AcceptLoop(*obj, last_seen);
+    return AcceptLoop(*obj);
   }
   // Closing a loop of more than a few pixels as it is was measured to be unsafe: small tags
   // accepted at 10 px pulled the default room's global solve into a wrong minimum (ATE 1.6 m).
@@ -38,16 +37,17 @@ bool Estimator::Impl::CloseLoop(Object* obj, Keyframe* kf, const Corners& corner
 }
 
 // A loop closed: the next global solve frees the keyframes since the object was last seen.
-bool Estimator::Impl::AcceptLoop(const Object& obj, int last_seen) {
+bool Estimator::Impl::AcceptLoop(const Object& obj) {
   ++summary.loops_closed;
   loop_pending = true;
-  loop_from = std::min(loop_from, std::max(0, last_seen >= 0 ? last_seen : obj.last_seen));
+  loop_from = std::min(loop_from, std::max(0, obj.last_seen));
   return true;
 }
 
 // The pre-alignment of CloseLoop; false (states unchanged) when it is implausible or leaves the
 // corners further than loop_accept_px from their prediction.
-bool Estimator::Impl::PreAlign(Object* obj, Keyframe* kf, const Corners& corners) {
+bool Estimator::Impl::PreAlign(Object* obj, Keyframe* kf, const Corners& corners,
+                               std::optional<double> error_before) {
   const GlobalOptions& g = options.global;
   // The camera pose in the map's frame from this view of the object.
   const SingleViewInitSummary sv = InitializeFspSingleView(
@@ -95,8 +95,7 @@ bool Estimator::Impl::PreAlign(Object* obj, Keyframe* kf, const Corners& corners
       ReanchorFhp(FhpLandmark(o->fhp), T_W_F_before, T_W_F_after, &o->fhp);
   }
   const std::optional<double> e1 = PredictionError(*obj, CameraPose(*kf), corners);
-  const std::optional<double> e0 = PredictionError(*obj, T_W_C, corners);
-  if (!e1 || *e1 > g.loop_accept_px || (e0 && *e1 >= *e0)) {
+  if (!e1 || *e1 > g.loop_accept_px || (error_before && *e1 >= *error_before)) {
     Restore(before);
     return false;
   }
@@ -157,16 +156,12 @@ void Estimator::Impl::ApplyGlobal() {
   if (!job) return;
   const std::unique_ptr<GlobalJob> j = std::move(job);
   if (j->thread.joinable()) j->thread.join();
-  summary.global_ms.push_back(j->ms);
-  summary.global_keyframes.push_back(static_cast<int>(j->kfs.size()));
-  summary.global_iterations += static_cast<int>(j->s.iterations.size());
+  CountGlobal(j->ms, j->kfs.size(), j->s, j->diverged.empty());
   if (!j->diverged.empty()) {
-    ++summary.global_rejected;
     Warn(keyframes.back()->state.t_ns,
          "divergence in a global solve (" + j->diverged + "): its result was rejected");
     return;
   }
-  ++summary.global_solves;
   const size_t n = j->kfs.size();
   const Rigid3 correction =
       j->kfs[n - 1]->state.T_W_B() * keyframes[n - 1]->state.T_W_B().Inverse();

@@ -335,11 +335,12 @@ struct Estimator::Impl {
   // restored) and the object starts afresh as a new instance.
   bool CloseLoop(Object* obj, Keyframe* kf, const Corners& corners);
   // A loop closed: the next global solve frees the keyframes since the object was last seen.
-  bool AcceptLoop(const Object& obj, int last_seen = -1);
+  bool AcceptLoop(const Object& obj);
 
-  // The pre-alignment of CloseLoop; false (states unchanged) when it is implausible or leaves the
-  // corners further than loop_accept_px from their prediction.
-  bool PreAlign(Object* obj, Keyframe* kf, const Corners& corners);
+  // The pre-alignment of CloseLoop; false (states unchanged) when it is implausible, leaves the
+  // corners further than loop_accept_px from their prediction or not closer than error_before.
+  bool PreAlign(Object* obj, Keyframe* kf, const Corners& corners,
+                std::optional<double> error_before);
 
   // Whether the object's depth sits on the box [min_depth_m, max_depth_m] (an FHP corner's, any):
   // such a depth is not an estimate (no parallax; or, seen in window mode and not yet understood, a
@@ -556,9 +557,11 @@ struct Estimator::Impl {
     summary.batch_solve_ms = MsSince(t0);
   }
 
-  // Window mode's global step: every keyframe and object, then the window's prior re-centred at
-  // the result (WindowBoundary::kPrior) so that it does not pull the window back.
-  void SolveGlobal(int max_iterations, bool final_solve = false);
+  // Window mode's final global solve (Finish): every keyframe and object, with the map's sigmas.
+  void SolveGlobalFinal();
+  // A global solve's counters in the summary.
+  void CountGlobal(double ms, size_t keyframes_solved, const ceres::Solver::Summary& s,
+                   bool accepted);
 
   // A global solve in flight (GlobalOptions::apply_after_keyframes, background): it works on copies
   // of the keyframes and objects, so the window goes on meanwhile.
@@ -640,7 +643,7 @@ struct Estimator::Impl {
     if (keyframes.empty()) return;
     ApplyGlobal();
     SolveWindow(options.window_max_iterations * 3, /*finish=*/!options.global.enabled);
-    if (options.global.enabled) SolveGlobal(options.global.final_iterations, /*final_solve=*/true);
+    if (options.global.enabled) SolveGlobalFinal();
   }
 };
 

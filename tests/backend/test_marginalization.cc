@@ -445,13 +445,19 @@ TEST(Marginalization, WindowWithFspRectanglesHasExactlyFourDimensionalNullspace)
         kept);
 }
 
+// Marginalises the oldest keyframe of W (every factor touching it); `manifolds` gets the
+// manifolds of the blocks those factors touch.
+MarginalizationSummary MarginalizeOldest(
+    Window& w, std::unordered_map<const double*, const ceres::Manifold*>* manifolds) {
+  std::vector<ResidualBlockInput> touching;
+  CollectResidualBlocks(*w.problem, {w.kf[0].pose, w.kf[0].speed_bias}, &touching, manifolds);
+  return Marginalize(touching, {w.kf[0].pose, w.kf[0].speed_bias}, *manifolds);
+}
+
 TEST(Marginalization, PriorFactorJacobians) {
   Window w(3);
-  std::vector<ResidualBlockInput> touching;
   std::unordered_map<const double*, const ceres::Manifold*> manifolds;
-  CollectResidualBlocks(*w.problem, {w.kf[0].pose, w.kf[0].speed_bias}, &touching, &manifolds);
-  const MarginalizationSummary ms =
-      Marginalize(touching, {w.kf[0].pose, w.kf[0].speed_bias}, manifolds);
+  const MarginalizationSummary ms = MarginalizeOldest(w, &manifolds);
   ASSERT_TRUE(ms.success) << ms.reason;
   MarginalizationPriorFactor prior(ms.prior);
   // Move every kept block away from the linearisation point (rotations by up to ~0.6 rad).
@@ -488,11 +494,8 @@ TEST(Marginalization, PriorFactorJacobians) {
 // still pulls towards where it was linearised.
 TEST(Marginalization, RecenteredPriorIsZeroAtTheNewValuesWithTheSameInformation) {
   Window w(3);
-  std::vector<ResidualBlockInput> touching;
   std::unordered_map<const double*, const ceres::Manifold*> manifolds;
-  CollectResidualBlocks(*w.problem, {w.kf[0].pose, w.kf[0].speed_bias}, &touching, &manifolds);
-  const MarginalizationSummary ms =
-      Marginalize(touching, {w.kf[0].pose, w.kf[0].speed_bias}, manifolds);
+  const MarginalizationSummary ms = MarginalizeOldest(w, &manifolds);
   ASSERT_TRUE(ms.success) << ms.reason;
   // Move the kept blocks (a translation of every pose, a velocity change).
   for (double* p : ms.prior->blocks) {

@@ -17,7 +17,9 @@
 //    (class prior, little parallax), pulled later solutions away (measured: ATE 15 cm vs 2 cm on
 //    the default scene's first 20 s). The cost per frame is bounded by the window and
 //    max_past_views, not the sequence length. Objects out of view stay in the map and are re-used
-//    when seen again.
+//    when seen again. Beside the window, the global step (GlobalOptions) solves every keyframe and
+//    object together, closes the loop of a returning object and ends the sequence with a final
+//    global solve.
 //  - kBatch (offline, the accuracy reference): every keyframe stays a variable; the growing problem
 //  is
 //    re-solved every `batch_solve_every` frames (IMU prediction in between) to keep the values near
