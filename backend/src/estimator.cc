@@ -747,9 +747,12 @@ void Estimator::Finish() {
   if (d.finished) return;
   d.finished = true;
   if (!d.summary.initialized && d.summary.init_failure.empty() && !d.pending.empty()) {
-    d.summary.init_failure = "the sequence ended before the static initialisation interval (" +
-                             std::to_string(d.options.static_init.window_s) +
-                             " s of IMU after the first frame)";
+    char why[160];
+    std::snprintf(why, sizeof(why),
+                  "the sequence ended before the static initialisation interval (%g s of IMU "
+                  "after the first frame)",
+                  d.options.static_init.window_s);
+    d.summary.init_failure = why;
   }
   if (d.last_frame_t) d.NoteFrame(*d.last_frame_t, true, /*end=*/true);
   if (!d.summary.initialized) return;
