@@ -224,7 +224,7 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   }
   report.objects = static_cast<int>(map.size());
   WriteTum(slam.Trajectory(), (out / "trajectory.tum").string());
-  WriteTum(slam.CausalTrajectory(), (out / "trajectory_causal.tum").string());
+  WriteTum(slam.CausalTrajectory(), (out / "trajectory_online.tum").string());
   WriteJson(MapToJson(map), (out / "map.json").string());
   WriteCornerRows(produced, (out / "observations.csv").string(), /*with_flag=*/false);
   WriteJson(RunReportToJson(report), (out / "run.json").string());

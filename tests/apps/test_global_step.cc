@@ -44,7 +44,7 @@ LoopRun RunLoop(const fs::path& out, const std::string& config) {
   const eval::EvalOptions eo;
   const eval::Metrics m = eval::Evaluate(
       eval::ResolvePaths(test::RoomLoopSequence().string(), (out / "run").string()), eo);
-  const fs::path causal = out / "run" / "trajectory_causal.tum";
+  const fs::path causal = out / "run" / "trajectory_online.tum";
   r.causal_poses = ReadTum(causal.string()).size();
   const eval::Metrics mc =
       eval::Evaluate(eval::ResolvePaths(test::RoomLoopSequence().string(), causal.string()), eo);
@@ -104,7 +104,7 @@ TEST(GlobalStep, SameInputSameBytesInBothSchedules) {
   RunLoop(dir / "background_1", "estimator:\n  global:\n    background: true\n");
   RunLoop(dir / "background_2", "estimator:\n  global:\n    background: true\n");
   RunLoop(dir / "synchronous", "estimator:\n  global:\n    background: false\n");
-  for (const char* f : {"trajectory.tum", "trajectory_causal.tum", "map.json"}) {
+  for (const char* f : {"trajectory.tum", "trajectory_online.tum", "map.json"}) {
     const std::string a = test::Slurp(dir / "background_1" / "run" / f);
     EXPECT_FALSE(a.empty()) << f;
     EXPECT_EQ(a, test::Slurp(dir / "background_2" / "run" / f)) << f;

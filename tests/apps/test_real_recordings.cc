@@ -44,7 +44,7 @@ TEST(RealRecordings, EurocStandingStillStaysWithinTwoCentimetres) {
   const double d_on = MaxDistanceFromStart(dir / "on" / "trajectory.tum");
   EXPECT_GE(d_on, 0.0);
   EXPECT_LT(d_on, 0.02);
-  EXPECT_LT(MaxDistanceFromStart(dir / "on" / "trajectory_causal.tum"), 0.02);
+  EXPECT_LT(MaxDistanceFromStart(dir / "on" / "trajectory_online.tum"), 0.02);
 
   std::ofstream(dir / "off.yaml") << "estimator:\n  zero_velocity:\n    enabled: false\n";
   const test::CommandResult off = test::RunFsp("run " + seq + " --out " + (dir / "off").string() +
