@@ -215,11 +215,11 @@ struct Estimator::Impl {
   void AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs, const KeyframeState* initial,
                    const std::optional<Gauge>& gauge = std::nullopt);
 
-  // Window mode: whether a frame is kept as a keyframe. Kept: every keyframe_interval_s, and any
-  // frame that sees an object not in the map or back after leaving the window (it may become the
-  // object's anchor, and only keyframes can be anchors).
+  // Whether a frame is kept as a keyframe (both modes). Kept: every keyframe_interval_s, and any
+  // frame that sees an object not in the map or (window mode) back after leaving the window (it may
+  // become the object's anchor, and only keyframes can be anchors).
   bool IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const {
-    if (options.mode == EstimatorMode::kBatch || options.keyframe_interval_s <= 0.0) return true;
+    if (options.keyframe_interval_s <= 0.0) return true;
     const Keyframe& last = *keyframes.back();  // a keyframe: a non-keyframe newest was just dropped
     if (static_cast<double>(t_ns - last.state.t_ns) >= options.keyframe_interval_s * 1e9 - 1e6)
       return true;
@@ -554,8 +554,14 @@ struct Estimator::Impl {
     ceres::Solver::Summary s;
     if (!SolveFull(options.batch_max_iterations, /*with_sigmas=*/true, "the final batch solve", &s))
       ++summary.divergences;
+    RepredictDropped();
     summary.batch_solve_ms = MsSince(t0);
   }
+
+  // Batch mode: the frames between keyframes are moved onto the final keyframe estimates through
+  // the IMU (preintegrated from the keyframe before them with its final velocity and biases), so
+  // their poses carry no state older than the final solve.
+  void RepredictDropped();
 
   // Window mode's final global solve (Finish): every keyframe and object, with the map's sigmas.
   void SolveGlobalFinal();
