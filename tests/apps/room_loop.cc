@@ -60,35 +60,40 @@ duration_s: 26
 
 }  // namespace
 
+sim::Scene RoomLoopScene() {
+  return sim::ParseScene(kScene, "room_loop.yaml", ".");
+}
+
+void WriteSequenceForGtCorners(const sim::Scene& scene, const fs::path& dir) {
+  fs::remove_all(dir);
+  sim::SequenceOptions options;
+  options.images = false;
+  options.video = false;
+  options.top_view = false;
+  options.progress = false;
+  sim::WriteSequence(scene, dir.string(), options);
+  const fs::path cam0 = dir / "mav0" / "cam0";
+  fs::create_directories(cam0 / "data");
+  std::ofstream csv(cam0 / "data.csv");
+  csv << "#timestamp [ns],filename\n";
+  bool first = true;
+  for (const int64_t t_ns : sim::FrameTimes(scene)) {
+    const std::string name = std::to_string(t_ns) + ".png";
+    csv << t_ns << "," << name << "\n";
+    if (first)
+      cv::imwrite((cam0 / "data" / name).string(),
+                  cv::Mat(scene.camera.height, scene.camera.width, CV_8UC1, cv::Scalar(128)));
+    else
+      std::ofstream(cam0 / "data" / name);
+    first = false;
+  }
+}
+
 const fs::path& RoomLoopSequence() {
   static const fs::path dir = [] {
     const fs::path d = fs::temp_directory_path() / "fsp_tests" /
                        ("room_loop_sequence_" + std::to_string(::getpid()));
-    fs::remove_all(d);
-    sim::SequenceOptions options;
-    options.images = false;
-    options.video = false;
-    options.top_view = false;
-    options.progress = false;
-    const sim::Scene scene = sim::ParseScene(kScene, "room_loop.yaml", ".");
-    sim::WriteSequence(scene, d.string(), options);
-    // Without images the sequence has no cam0/data.csv: list the frames (ground-truth corners
-    // need no pixels; the reader decodes the first image only, so one blank image and empty files).
-    const fs::path cam0 = d / "mav0" / "cam0";
-    fs::create_directories(cam0 / "data");
-    std::ofstream csv(cam0 / "data.csv");
-    csv << "#timestamp [ns],filename\n";
-    bool first = true;
-    for (const int64_t t_ns : sim::FrameTimes(scene)) {
-      const std::string name = std::to_string(t_ns) + ".png";
-      csv << t_ns << "," << name << "\n";
-      if (first)
-        cv::imwrite((cam0 / "data" / name).string(),
-                    cv::Mat(scene.camera.height, scene.camera.width, CV_8UC1, cv::Scalar(128)));
-      else
-        std::ofstream(cam0 / "data" / name);
-      first = false;
-    }
+    WriteSequenceForGtCorners(RoomLoopScene(), d);
     return d;
   }();
   return dir;

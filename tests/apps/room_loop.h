@@ -8,10 +8,19 @@
 #include <cstddef>
 #include <filesystem>
 
+#include "fsp/sim/scene.h"
+
 namespace fsp::test {
 
 // The rendered sequence's folder (one per process: CTest runs tests as parallel processes).
 const std::filesystem::path& RoomLoopSequence();
+// The room loop's scene, to render it with other seeds.
+sim::Scene RoomLoopScene();
+
+// Renders SCENE into DIR without images (ground truth, IMU, corners), with a cam0 frame list so
+// that `fsp run --frontend gt-corners` reads it (the reader decodes the first image only: one blank
+// image and empty files).
+void WriteSequenceForGtCorners(const sim::Scene& scene, const std::filesystem::path& dir);
 constexpr size_t kRoomLoopFrames = 520;  // 26 s at 20 Hz
 
 }  // namespace fsp::test
