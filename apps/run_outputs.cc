@@ -110,6 +110,7 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                     {"marginalization_failures", s.marginalization_failures},
                     {"zero_velocity_keyframes", s.zero_velocity_keyframes},
                     {"batch_solve_ms", s.batch_solve_ms},
+                    {"scale_sigma", s.scale_sigma},
                     {"final_cost", s.final_cost}};
   double global_ms_total = 0.0, global_ms_max = 0.0;
   for (double ms : s.global_ms) {

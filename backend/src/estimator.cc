@@ -499,6 +499,16 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
     for (int a = 0; !fsp && a < 4; ++a)
       for (int b = a; b < 4; ++b) blocks.emplace_back(obj->fhp.corner[a], obj->fhp.corner[b]);
   }
+  // The map's scale (EstimatorSummary::scale_sigma): the objects the map reports, with their
+  // cross-covariances.
+  std::vector<const Object*> mapped;
+  for (const Object* obj : in_problem)
+    if (fsp && obj->observations >= options.min_observations && !AtDepthBound(*obj))
+      mapped.push_back(obj);
+  for (size_t i = 0; i < mapped.size(); ++i)
+    for (size_t j = i + 1; j < mapped.size(); ++j)
+      blocks.emplace_back(mapped[i]->fsp.x, mapped[j]->fsp.x);
+  summary.scale_sigma = -1.0;
   if (blocks.empty() || !covariance.Compute(blocks, problem)) return;
   // ceres::Covariance orders its columns by parameter block address, so the last bits of a σ
   // depend on heap layout; 9 significant digits keep the output deterministic and lose nothing.
@@ -511,6 +521,22 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
     const auto [sw, sh] = fsp ? FspSigmas(covariance, obj->fsp) : FhpSigmas(covariance, obj->fhp);
     sigmas[obj] = {round9(sw), round9(sh)};
   }
+  if (mapped.empty()) return;
+  // ½ (log w + log h) = log w̄ − log ω − ½ log f.
+  Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
+  g[kFspLogWbar] = 1.0;
+  g[kFspLogOmega] = -1.0;
+  g[kFspLogForm] = -0.5;
+  double var = 0.0;
+  for (size_t i = 0; i < mapped.size(); ++i)
+    for (size_t j = i; j < mapped.size(); ++j) {
+      double c[25];
+      covariance.GetCovarianceBlock(mapped[i]->fsp.x, mapped[j]->fsp.x, c);
+      const Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
+      var += (i == j ? 1.0 : 2.0) * g.dot(C * g);
+    }
+  const double n = static_cast<double>(mapped.size());
+  summary.scale_sigma = round9(std::sqrt(std::max(0.0, var)) / n);
 }
 
 void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs,

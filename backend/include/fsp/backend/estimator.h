@@ -249,6 +249,13 @@ struct EstimatorSummary {
       backend_ms;               // wall time of each frame's update (solve + marginalisation) [ms]
   double batch_solve_ms = 0.0;  // the final full solve (batch mode) [ms]
   double final_cost = 0.0;
+  // How well the map's metric scale is determined (after Finish, FSP landmarks): the σ of the
+  // mean of the mapped objects' log sizes ½ (log w + log h), from the final solve's covariance
+  // with every cross-covariance between objects. A relative σ: 0.01 = the map's sizes and the
+  // trajectory's scale are known to about 1 %. It bounds the common (scale) part of the objects'
+  // size errors from above (their independent parts average out as 1/n). −1: unknown (FHP, no
+  // objects, or the covariance failed).
+  double scale_sigma = -1.0;
   // Faults (FaultOptions): holes in the IMU stream bridged by the motion prior, frame gaps,
   // stretches without any object in view, rejected solves (divergences) and session restarts.
   int imu_gaps = 0;
