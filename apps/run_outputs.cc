@@ -103,6 +103,8 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
   const backend::EstimatorSummary& s = r.summary;
   j["estimator"] = {{"initialized", s.initialized},
                     {"init_failure", s.init_failure},
+                    {"init_in_motion", s.init_in_motion},
+                    {"init_t_s", s.init_t_s},
                     {"observations_used", s.observations_used},
                     {"observations_rejected", s.observations_rejected},
                     {"reanchors", s.reanchors},

@@ -210,6 +210,14 @@ struct Estimator::Impl {
   // --- Initialisation ----------------------------------------------------------------------------
   // Returns true once initialised; false while waiting for IMU or after a refusal.
   bool TryInitialize();
+  // The static initialisation refused with STATIC_REASON: tries the initialisation in motion on the
+  // pending frames (dropping the oldest when it refuses, until max_wait_s).
+  bool TryInitializeInMotion(const std::string& static_reason);
+  // Starts the first session at FRAMES[0] with state FIRST and its gauge priors, then adds the
+  // other frames.
+  void StartSession(std::vector<std::pair<int64_t, std::vector<ObjectObservation>>> frames,
+                    const KeyframeState& first, const Gauge& gauge);
+  std::optional<int64_t> first_frame_t;  // the first frame given (initialisation's clock)
 
   // --- Keyframes ---------------------------------------------------------------------------------
   void AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs, const KeyframeState* initial,

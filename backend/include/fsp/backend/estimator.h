@@ -44,6 +44,7 @@
 
 #include "fsp/backend/fsp_factor.h"
 #include "fsp/backend/imu_preintegration.h"
+#include "fsp/backend/motion_init.h"
 #include "fsp/backend/single_view_init.h"
 #include "fsp/backend/state.h"
 #include "fsp/backend/static_init.h"
@@ -183,6 +184,11 @@ struct EstimatorOptions {
   // Static initialisation: the IMU over the first window_s seconds after the first frame must be
   // still; it gives gravity (roll, pitch), the gyroscope bias and zero velocity.
   StaticInitOptions static_init;
+  // When the static initialisation refuses (the start moves): the initialisation in motion from
+  // the most-seen rectangle and the IMU (motion_init.h). Its first state's velocity gets this
+  // prior σ [m/s].
+  MotionInitOptions motion_init;
+  double motion_init_velocity_sigma = 0.1;
   // Prior on the initial biases: the static start gives the gyro bias well; the accelerometer bias
   // is only known to be small.
   double prior_gyro_bias_sigma = 0.01;  // [rad/s]
@@ -234,10 +240,12 @@ struct MapObject {
 
 struct EstimatorSummary {
   bool initialized = false;
-  std::string init_failure;       // why the static initialisation refused (empty when fine)
-  int frames = 0;                 // frames given to AddFrame
-  int keyframes = 0;              // keyframes created
-  int observations_used = 0;      // observations of objects in the map (they become factors)
+  std::string init_failure;     // why the initialisation refused (empty when fine)
+  bool init_in_motion = false;  // initialised in motion (MotionInitOptions), not from a still start
+  double init_t_s = 0.0;        // time of the first state since the first frame [s]
+  int frames = 0;               // frames given to AddFrame
+  int keyframes = 0;            // keyframes created
+  int observations_used = 0;    // observations of objects in the map (they become factors)
   int observations_rejected = 0;  // first views whose single-view initialisation failed
   int reanchors = 0;
   int objects_reinitialized =
