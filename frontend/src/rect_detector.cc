@@ -162,7 +162,7 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
     }
     const std::vector<ri::Quad> doors = ri::FindDoorQuads(
         segs, segs.size() > n_before ? ri::FindJunctions(segs, o, &junctions) : junctions, quads, o,
-        gray.rows, min_side);
+        gray.cols, gray.rows, min_side);
     quads.insert(quads.end(), doors.begin(), doors.end());
   }
   res.hypotheses = static_cast<int>(quads.size());

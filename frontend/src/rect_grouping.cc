@@ -103,7 +103,7 @@ std::vector<Quad> FindQuads(const SegmentJunctions& ends, double min_side, int m
 
 std::vector<Quad> FindDoorQuads(const std::vector<Seg>& segs, const SegmentJunctions& ends,
                                 const std::vector<Quad>& closed, const RectDetectorOptions& o,
-                                int rows, double min_side) {
+                                int cols, int rows, double min_side) {
   std::vector<Quad> quads;
   // Three consecutive sides of the closed quads of the grouping: no door hypothesis on them (the
   // closed quad has a bottom with an edge).
@@ -134,55 +134,90 @@ std::vector<Quad> FindDoorQuads(const std::vector<Seg>& segs, const SegmentJunct
           std::max(ta, tb) <= l.len + o.junction_slack_px)
         jamb[i] = 2;  // covered: kept as a segment, not as a jamb
     }
-  for (int t = 0; t < ns; ++t) {
+  // A door from a lintel with a jamb hanging down from each end: `t` is the lintel (its segment),
+  // jl and jr the jambs' junctions with it at the lintel's two ends.
+  auto door = [&](int t, const Junction& jl, const Junction& jr) {
+    if (jl.seg == jr.seg) return;
+    // Left and right jambs hanging down from the lintel's two ends: long, near-vertical, their
+    // free ends below the junctions.
     const Seg& top = segs[t];
-    if (std::abs(top.dir.x()) < std::abs(top.dir.y())) continue;  // the lintel: near-horizontal
-    for (const Junction& jl : ends[t][0])
-      for (const Junction& jr : ends[t][1]) {
-        if (jl.seg == jr.seg) continue;
-        // Left and right jambs hanging down from the lintel's two ends: long, near-vertical, their
-        // free ends below the junctions.
-        const Seg& a = segs[jl.seg];
-        const Seg& b = segs[jr.seg];
-        if (jamb[jl.seg] != 1 || jamb[jr.seg] != 1 ||
-            closed_triples.count({std::min(jl.seg, jr.seg), t, std::max(jl.seg, jr.seg)}))
-          continue;
-        const Vec2 fa = jl.end == 0 ? a.b : a.a;  // free ends
-        const Vec2 fb = jr.end == 0 ? b.b : b.a;
-        if (fa.y() - jl.x.y() < min_height || fb.y() - jr.x.y() < min_height) continue;
-        // The bottom: the line through the free ends (refinement looks for its edge there and
-        // keeps that line when there is none: a door's bottom in shadow, on a dark floor) when it
-        // is within `door_bottom_max_deg` of the lintel's direction (perspective tilts them
-        // apart); and when the free ends are not level with each other (the jambs' edges fade out
-        // at different heights), also the line parallel to the lintel through the lower free end.
-        const Vec2 ut = top.dir;
-        const Vec2 ub = (fb - fa).normalized();
-        const double sin_bottom = std::abs(ub.x() * ut.y() - ub.y() * ut.x());
-        auto add = [&](const Vec2& ca, const Vec2& cb) {
-          Quad q;
-          q.c = {jl.x, jr.x, cb, ca};
-          q.seg = {jl.seg, t, jr.seg, -1};
-          q.weak_side = 3;
-          if (!IsConvex(q.c) || ShortestSide(q.c) < min_side) return;
-          // Near-duplicates (parallel lintel lines, jambs' ends a pixel apart) are refined once.
-          const double tol = std::max(2.0, o.duplicate_corner_frac * ShortestSide(q.c));
-          for (const Quad& d : quads) {
-            bool same = true;
-            for (int i = 0; i < 4 && same; ++i) same = (d.c[i] - q.c[i]).norm() <= tol;
-            if (same) return;
-          }
-          quads.push_back(q);
-        };
-        if (sin_bottom <= std::sin(o.door_bottom_max_deg * M_PI / 180.0)) add(fa, fb);
-        if (sin_bottom > std::sin(M_PI / 180.0)) {
-          Line bottom;
-          bottom.n = Vec2(-ut.y(), ut.x());
-          bottom.c = bottom.n.dot(fa.y() > fb.y() ? fa : fb);
-          Vec2 ca, cb;
-          if (Intersect(LineOf(a), bottom, &ca) && Intersect(LineOf(b), bottom, &cb)) add(ca, cb);
-        }
-        if (static_cast<int>(quads.size()) >= o.max_hypotheses) return quads;
+    const Seg& a = segs[jl.seg];
+    const Seg& b = segs[jr.seg];
+    if (jamb[jl.seg] != 1 || jamb[jr.seg] != 1 ||
+        closed_triples.count({std::min(jl.seg, jr.seg), t, std::max(jl.seg, jr.seg)}))
+      return;
+    const Vec2 fa = jl.end == 0 ? a.b : a.a;  // free ends
+    const Vec2 fb = jr.end == 0 ? b.b : b.a;
+    if (fa.y() - jl.x.y() < min_height || fb.y() - jr.x.y() < min_height) return;
+    // The bottom: the line through the free ends (refinement looks for its edge there and
+    // keeps that line when there is none: a door's bottom in shadow, on a dark floor) when it
+    // is within `door_bottom_max_deg` of the lintel's direction (perspective tilts them
+    // apart); and when the free ends are not level with each other (the jambs' edges fade out
+    // at different heights), also the line parallel to the lintel through the lower free end.
+    const Vec2 ut = top.dir;
+    const Vec2 ub = (fb - fa).normalized();
+    const double sin_bottom = std::abs(ub.x() * ut.y() - ub.y() * ut.x());
+    auto add = [&](const Vec2& ca, const Vec2& cb) {
+      Quad q;
+      q.c = {jl.x, jr.x, cb, ca};
+      q.seg = {jl.seg, t, jr.seg, -1};
+      q.weak_side = 3;
+      if (!IsConvex(q.c) || ShortestSide(q.c) < min_side) return;
+      // Near-duplicates (parallel lintel lines, jambs' ends a pixel apart) are refined once.
+      const double tol = std::max(2.0, o.duplicate_corner_frac * ShortestSide(q.c));
+      for (const Quad& d : quads) {
+        bool same = true;
+        for (int i = 0; i < 4 && same; ++i) same = (d.c[i] - q.c[i]).norm() <= tol;
+        if (same) return;
       }
+      quads.push_back(q);
+    };
+    if (sin_bottom <= std::sin(o.door_bottom_max_deg * M_PI / 180.0)) add(fa, fb);
+    if (sin_bottom > std::sin(M_PI / 180.0)) {
+      Line bottom;
+      bottom.n = Vec2(-ut.y(), ut.x());
+      bottom.c = bottom.n.dot(fa.y() > fb.y() ? fa : fb);
+      Vec2 ca, cb;
+      if (Intersect(LineOf(a), bottom, &ca) && Intersect(LineOf(b), bottom, &cb)) add(ca, cb);
+    }
+  };
+  // Lintels: near-horizontal straight segments. A lintel broken by an occluder (a branch, a lamp,
+  // a sign in front of it) is two collinear pieces (same polarity, within the merge tolerances)
+  // with a gap of up to `door_jamb_gap_frac` of the diagonal between them, as for jambs: the left
+  // jamb meets the first piece, the right jamb the second. (Merging all collinear pieces with that
+  // gap instead joins a door's lintel with the top of a window beside it, whose end is no corner.)
+  auto jamb_at = [&](int t, int e) {
+    for (const Junction& j : ends[t][e])
+      if (jamb[j.seg] == 1) return true;
+    return false;
+  };
+  std::vector<int> lintels;
+  for (int t = 0; t < ns; ++t)
+    if (std::abs(segs[t].dir.x()) >= std::abs(segs[t].dir.y()) && (jamb_at(t, 0) || jamb_at(t, 1)))
+      lintels.push_back(t);
+  const double max_gap = o.door_jamb_gap_frac * std::hypot(cols, rows);
+  for (const int t : lintels) {
+    if (!jamb_at(t, 0)) continue;
+    for (const int t2 : lintels) {
+      if (!jamb_at(t2, 1)) continue;
+      if (t2 != t) {
+        // t2 continues t beyond its end b, on its line (straight pieces only).
+        const Seg &s1 = segs[t], &s2 = segs[t2];
+        if (!s1.path.empty() || !s2.path.empty()) continue;
+        if (s1.dir.dot(s2.dir) < cos_merge) continue;
+        const double gap = (s2.a - s1.b).dot(s1.dir);
+        if (gap < -o.junction_slack_px || gap > max_gap) continue;
+        const Line l1 = LineOf(s1), l2 = LineOf(s2);
+        if (std::abs(l1.Dist(s2.a)) > o.merge_line_px || std::abs(l2.Dist(s1.b)) > o.merge_line_px)
+          continue;
+      }
+      const int lintel = t2 == t || segs[t].len >= segs[t2].len ? t : t2;
+      for (const Junction& jl : ends[t][0])
+        for (const Junction& jr : ends[t2][1]) {
+          door(lintel, jl, jr);
+          if (static_cast<int>(quads.size()) >= o.max_hypotheses) return quads;
+        }
+    }
   }
   return quads;
 }

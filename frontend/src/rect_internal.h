@@ -274,10 +274,12 @@ std::vector<Quad> FindQuads(const SegmentJunctions& ends, double min_side, int m
 // long near-vertical jamb segment hanging down from each of its ends, closed by the line through
 // the jambs' lower ends; that bottom side is the quad's `weak_side` (refinement keeps the line
 // when it finds no edge there: a door's bottom in shadow or on a dark floor).
-// None on three sides of a quad in `closed` (the grouping's 4-cycles).
+// None on three sides of a quad in `closed` (the grouping's 4-cycles). A lintel broken by an
+// occluder may be two collinear pieces with a gap of up to `door_jamb_gap_frac` of the image
+// diagonal (cols x rows) between them.
 std::vector<Quad> FindDoorQuads(const std::vector<Seg>& segs, const SegmentJunctions& ends,
                                 const std::vector<Quad>& closed, const RectDetectorOptions& o,
-                                int rows, double min_side);
+                                int cols, int rows, double min_side);
 
 // ---- 4. refinement (edge_refine.cc) ----
 

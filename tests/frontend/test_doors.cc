@@ -185,8 +185,9 @@ TEST(RealPhotos, DoorsDevSet) {
   }
   std::printf("doors found %d/35, extras %d (%.2f per photo), mean %.1f ms\n", found, extras,
               extras / 35.0, total_ms / 35);
-  // Pinned at what the detector reaches (30 / 35, 14 extras); the issue asks for >= 90 % (32 / 35).
-  EXPECT_GE(found, 30);
+  // Pinned at what the detector reaches (31 / 35, 14 extras; 30 before lintels broken by an
+  // occluder were bridged); the issue asks for >= 90 % (32 / 35).
+  EXPECT_GE(found, 31);
   EXPECT_LE(extras, 35);  // at most one other rectangle per photo on average
 }
 

@@ -138,7 +138,9 @@ struct RectDetectorOptions {
   // the lower end is also tried.
   double door_bottom_max_deg = 30.0;
   // Largest gap [fraction of the image diagonal] bridged between collinear near-vertical pieces of
-  // a jamb (a handle, hinges, a sign, a shadow across the side) for the door hypotheses.
+  // a jamb (a handle, hinges, a sign, a shadow across the side) for the door hypotheses, and
+  // between two collinear pieces of a lintel (a branch or a lamp in front of it) whose ends the
+  // two jambs meet.
   double door_jamb_gap_frac = 0.15;
   // Cap on hypotheses per image (bounds the time on heavy clutter).
   int max_hypotheses = 3000;
