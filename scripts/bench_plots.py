@@ -1,0 +1,314 @@
+#!/usr/bin/python3
+"""Plots of an `fsp bench` run: bench_plots.py DIR/metrics.json OUT_DIR.
+
+Reads metrics.json (written by `fsp bench`) and, for each scene, the series file
+(runs/.../bench_series.json) of the first successful seed of each configuration; writes into OUT_DIR:
+
+  SCENE_top_view.png  trajectory and map from above, ground truth against the SE3-aligned estimate
+  SCENE_rpe.png       relative translation and rotation error per step (the paper's Fig. 3)
+  SCENE_corners.png   3D error of each corner of each matched object (Fig. 4)
+  SCENE_sizes.png     width and height error per object (Fig. 5)
+  SCENE_timing.png    time per stage and frame (median; back end also p90), real-time factor
+
+Figs. 3-5 compare FSP with FHP: they show the configurations that have both (same front end and
+mode), or every configuration when none has. Needs Debian's python3-matplotlib: without it the
+script prints one line and exits 3 (`fsp bench` then writes report.md and metrics.json without
+plots). Deterministic: the same inputs give the same pictures.
+"""
+import json
+import os
+import sys
+
+
+def fail(message, code=2):
+    print("bench_plots.py: " + message)
+    sys.exit(code)
+
+
+try:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+except ImportError:
+    fail("python3-matplotlib is missing (Debian: apt-get install python3-matplotlib); no plots", 3)
+
+# Same colour for a front end + mode, FSP solid, FHP dashed.
+PALETTE = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"]
+
+
+def style(config, order):
+    """Colour by front end + mode, line style by landmarks."""
+    frontend, rest = config.split("/", 1)
+    landmarks, mode = rest.split("-", 1)
+    key = frontend + "/" + mode
+    colour = PALETTE[order.index(key) % len(PALETTE)] if key in order else "k"
+    return colour, "-" if landmarks == "fsp" else "--"
+
+
+def style_order(configs):
+    order = []
+    for c in configs:
+        frontend, rest = c.split("/", 1)
+        key = frontend + "/" + rest.split("-", 1)[1]
+        if key not in order:
+            order.append(key)
+    return order
+
+
+def load_series(base, scene):
+    """{config: (seed, series, aggregate mean)} for the first successful seed of each config."""
+    out = {}
+    for config, c in scene["configs"].items():
+        for seed, run in c["runs"].items():
+            if "error" in run or "series" not in run:
+                continue
+            path = os.path.join(base, run["series"])
+            if not os.path.exists(path):
+                continue
+            with open(path) as f:
+                out[config] = (seed, json.load(f), c["aggregate"]["mean"])
+            break
+    return out
+
+
+def paired(configs):
+    """Configurations with an FSP and an FHP run of the same front end and mode."""
+    names = set(configs)
+    keep = [c for c in configs
+            if c.replace("/fsp-", "/fhp-") in names and c.replace("/fhp-", "/fsp-") in names]
+    return keep or list(configs)
+
+
+def top_view(name, runs, path):
+    configs = list(runs)
+    n = len(configs)
+    cols = min(3, n)
+    rows = (n + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.6 * rows), squeeze=False)
+    for k, config in enumerate(configs):
+        ax = axes[k // cols][k % cols]
+        seed, s, mean = runs[config]
+        for o in s.get("objects_gt", []):
+            xs = [p[0] for p in o["corners_W"]] + [o["corners_W"][0][0]]
+            ys = [p[1] for p in o["corners_W"]] + [o["corners_W"][0][1]]
+            ax.plot(xs, ys, color="k", lw=2.5, solid_capstyle="butt")
+        if "xy_ref" in s:
+            ax.plot([p[0] for p in s["xy_ref"]], [p[1] for p in s["xy_ref"]], color="0.6", lw=1.5,
+                    label="ground truth")
+            ax.plot([p[0] for p in s["xy_est"]], [p[1] for p in s["xy_est"]], color="#d62728",
+                    lw=0.8, label="estimate (SE3-aligned)")
+        for o in s.get("objects_est", []):
+            xs = [p[0] for p in o["corners_W"]] + [o["corners_W"][0][0]]
+            ys = [p[1] for p in o["corners_W"]] + [o["corners_W"][0][1]]
+            ax.plot(xs, ys, color="#d62728", lw=1.0)
+        # Frame the ground truth: a diverged estimate is clipped instead of shrinking the truth.
+        xs = [p[0] for p in s.get("xy_ref", [])]
+        ys = [p[1] for p in s.get("xy_ref", [])]
+        for o in s.get("objects_gt", []):
+            xs += [p[0] for p in o["corners_W"]]
+            ys += [p[1] for p in o["corners_W"]]
+        if xs:
+            pad = 0.05 * max(max(xs) - min(xs), max(ys) - min(ys)) + 0.2
+            ax.set_xlim(min(xs) - pad, max(xs) + pad)
+            ax.set_ylim(min(ys) - pad, max(ys) + pad)
+        ax.set_aspect("equal")
+        ax.set_title("%s, seed %s%s" % (config, seed,
+                                        ", ATE %.2f cm" % (100 * s_ate(s)) if "ate_m" in s else ""),
+                     fontsize=10)
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.grid(True, lw=0.3)
+        if k == 0:
+            ax.legend(loc="best", fontsize=8)
+    for k in range(n, rows * cols):
+        axes[k // cols][k % cols].axis("off")
+    fig.suptitle("%s: top view, ground truth (grey, black) and estimate (red)" % name)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def s_ate(s):
+    """ATE rmse of one run's series [m]."""
+    e = s["ate_m"]
+    return (sum(x * x for x in e) / len(e)) ** 0.5 if e else 0.0
+
+
+def rpe(name, runs, path):
+    configs = paired(list(runs))
+    order = style_order(configs)
+    fig, axes = plt.subplots(2, 1, figsize=(11, 6.5), sharex=True)
+    for config in configs:
+        seed, s, _ = runs[config]
+        if "rpe_trans_m" not in s or not s["rpe_trans_m"]:
+            continue
+        t = s["t_s"][1:]
+        colour, ls = style(config, order)
+        axes[0].plot(t, [100 * e for e in s["rpe_trans_m"]], color=colour, ls=ls, lw=0.8,
+                     label="%s (seed %s)" % (config, seed))
+        axes[1].plot(t, s["rpe_rot_deg"], color=colour, ls=ls, lw=0.8)
+    for ax in axes:
+        ax.set_yscale("log")
+        ax.grid(True, which="both", lw=0.3)
+    axes[0].set_ylabel("translation error [cm]")
+    axes[1].set_ylabel("rotation error [deg]")
+    axes[1].set_xlabel("time [s]")
+    axes[0].legend(fontsize=8, ncol=2)
+    axes[0].set_title("%s: relative pose error per step (consecutive frames), FSP solid, FHP dashed"
+                      % name)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def corners(name, runs, path):
+    configs = paired(list(runs))
+    order = style_order(configs)
+    ids = sorted({o["id"] for c in configs for o in runs[c][1].get("per_object", [])})
+    if not ids:
+        return False
+    index = {i: k for k, i in enumerate(ids)}
+    fig, ax = plt.subplots(figsize=(max(8, 0.5 * len(ids) + 3), 4.5))
+    width = 0.8 / max(1, len(configs))
+    for n, config in enumerate(configs):
+        seed, s, _ = runs[config]
+        colour, ls = style(config, order)
+        xs, ys = [], []
+        for o in s.get("per_object", []):
+            for j, e in enumerate(o["corner_err_m"]):
+                xs.append(index[o["id"]] - 0.4 + width * (n + 0.5) + (j - 1.5) * width / 5)
+                ys.append(100 * e)
+        ax.plot(xs, ys, ls="none", marker="o" if ls == "-" else "^", ms=3.5, color=colour,
+                label="%s (seed %s)" % (config, seed))
+    ax.set_xticks(range(len(ids)))
+    ax.set_xticklabels([str(i) for i in ids])
+    ax.set_xlabel("object id (its four corners s1..s4 side by side)")
+    ax.set_ylabel("corner 3D error [cm]")
+    ax.set_yscale("log")
+    ax.grid(True, which="both", axis="y", lw=0.3)
+    ax.legend(fontsize=8, ncol=2)
+    ax.set_title("%s: corner error per corner after SE3 alignment, FSP (o) and FHP (^)" % name)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return True
+
+
+def sizes(name, runs, path):
+    configs = paired(list(runs))
+    order = style_order(configs)
+    ids = sorted({o["id"] for c in configs for o in runs[c][1].get("per_object", [])})
+    if not ids:
+        return False
+    index = {i: k for k, i in enumerate(ids)}
+    fig, axes = plt.subplots(2, 1, figsize=(max(8, 0.5 * len(ids) + 3), 6.5), sharex=True)
+    width = 0.8 / max(1, len(configs))
+    for n, config in enumerate(configs):
+        seed, s, _ = runs[config]
+        colour, ls = style(config, order)
+        per = s.get("per_object", [])
+        xs = [index[o["id"]] - 0.4 + width * (n + 0.5) for o in per]
+        hatch = None if ls == "-" else "//"
+        axes[0].bar(xs, [100 * o["width_err_m"] for o in per], width, color=colour, hatch=hatch,
+                    edgecolor="white" if hatch else colour, lw=0,
+                    label="%s (seed %s)" % (config, seed))
+        axes[1].bar(xs, [100 * o["height_err_m"] for o in per], width, color=colour, hatch=hatch,
+                    edgecolor="white" if hatch else colour, lw=0)
+    classes = {}
+    for c in configs:
+        for o in runs[c][1].get("per_object", []):
+            classes[o["id"]] = o.get("class", "")
+    axes[1].set_xticks(range(len(ids)))
+    axes[1].set_xticklabels(["%d\n%s" % (i, classes.get(i, "")) for i in ids], fontsize=7)
+    axes[0].set_ylabel("width error [cm]")
+    axes[1].set_ylabel("height error [cm]")
+    for ax in axes:
+        ax.grid(True, axis="y", lw=0.3)
+    axes[0].legend(fontsize=8, ncol=2)
+    axes[0].set_title("%s: width and height error per object, FSP (plain) and FHP (hatched)" % name)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return True
+
+
+STAGES = [("track", "track"), ("detect", "detect"), ("associate", "associate"),
+          ("frontend", "front end"), ("backend", "back end")]
+
+
+def timing(name, runs, path):
+    configs = list(runs)
+    fig, ax = plt.subplots(figsize=(10, 0.9 * len(configs) + 1.8))
+    bars = []  # (label, colour)
+    height = 0.8 / (len(STAGES) + 1)
+    colours = ["#bcbd22", "#17becf", "#e377c2", "#ff7f0e", "#1f77b4", "#aec7e8"]
+    for n, config in enumerate(configs):
+        _, s, mean = runs[config]
+        st = s.get("stage_ms", {})
+        k = 0
+        y0 = n - 0.4 + height / 2
+        entries = [(label, st[key]["median"]) for key, label in STAGES
+                   if isinstance(st.get(key), dict) and st[key].get("count", 0) > 0]
+        if isinstance(st.get("backend"), dict) and st["backend"].get("count", 0) > 0:
+            entries.append(("back end p90", st["backend"]["p90"]))
+        for label, value in entries:
+            if label not in [b[0] for b in bars]:
+                bars.append((label, colours[len(bars) % len(colours)]))
+            colour = dict(bars)[label]
+            ax.barh(y0 + k * height, max(value, 1e-3), height, color=colour, label=label)
+            k += 1
+        rt = mean.get("realtime_factor")
+        if rt is not None:
+            ax.text(1.01, n, "%.1fx real time" % rt, transform=ax.get_yaxis_transform(),
+                    va="center", fontsize=8)
+    ax.set_yticks(range(len(configs)))
+    ax.set_yticklabels(configs, fontsize=8)
+    ax.invert_yaxis()
+    ax.set_xscale("log")
+    ax.set_xlabel("milliseconds per frame (median; seed of the other plots)")
+    ax.grid(True, which="both", axis="x", lw=0.3)
+    handles, labels = ax.get_legend_handles_labels()
+    unique = dict(zip(labels, handles))
+    ax.legend(unique.values(), unique.keys(), fontsize=8, loc="lower right")
+    ax.set_title("%s: time per stage (real-time factor: seed mean)" % name)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def main(argv):
+    if len(argv) != 3:
+        fail("usage: bench_plots.py METRICS_JSON OUT_DIR")
+    metrics_path, out_dir = argv[1], argv[2]
+    try:
+        with open(metrics_path) as f:
+            metrics = json.load(f)
+    except (OSError, ValueError) as e:
+        fail("%s: %s" % (metrics_path, e))
+    base = os.path.dirname(os.path.abspath(metrics_path))
+    os.makedirs(out_dir, exist_ok=True)
+    written = []
+    for name, scene in metrics.get("scenes", {}).items():
+        runs = load_series(base, scene)
+        if not runs:
+            print("%s: no successful run, no plots" % name)
+            continue
+        stem = os.path.join(out_dir, name.replace("/", "_"))
+        top_view(name, runs, stem + "_top_view.png")
+        written.append(stem + "_top_view.png")
+        rpe(name, runs, stem + "_rpe.png")
+        written.append(stem + "_rpe.png")
+        if corners(name, runs, stem + "_corners.png"):
+            written.append(stem + "_corners.png")
+        if sizes(name, runs, stem + "_sizes.png"):
+            written.append(stem + "_sizes.png")
+        timing(name, runs, stem + "_timing.png")
+        written.append(stem + "_timing.png")
+    for w in written:
+        print("wrote " + w)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
