@@ -1,5 +1,6 @@
 #include "bench_suite.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <set>
@@ -68,9 +69,34 @@ void ReadPart(const std::string& path, const YAML::Node& part, BenchScene* scene
       std::set<std::string> seen;
       for (const YAML::Node& c : kv.second) {
         BenchConfig config;
-        std::string why;
-        if (!c.IsScalar() || !ParseBenchConfig(c.as<std::string>(), &config, &why))
+        std::string why = "expected a name or {config: NAME, seeds: [...]}";
+        // (yaml-cpp: assigning a node to another writes through it; bind each name once.)
+        const YAML::Node name = c.IsMap() ? c["config"] : c;
+        if (c.IsMap()) {
+          for (const auto& ckv : c) {
+            const std::string ckey = ckv.first.as<std::string>();
+            if (ckey != "config" && ckey != "seeds")
+              throw InputError(path, LineOf(ckv.first),
+                               "configs: unknown key '" + ckey + "' (known: config, seeds)");
+          }
+          if (c["seeds"]) {
+            if (!c["seeds"].IsSequence() || c["seeds"].size() == 0)
+              throw InputError(path, LineOf(c), "configs: seeds: expected a non-empty list");
+            for (const YAML::Node& sn : c["seeds"]) {
+              long long v = -1;
+              try {
+                v = sn.as<long long>();
+              } catch (const YAML::Exception&) {
+              }
+              if (v < 0 || v > 0xffffffffLL)
+                throw InputError(path, LineOf(sn), "configs: seeds: expected integers");
+              config.seeds.push_back(static_cast<unsigned>(v));
+            }
+          }
+        }
+        if (!name || !name.IsScalar() || !ParseBenchConfig(name.as<std::string>(), &config, &why))
           throw InputError(path, LineOf(c), "configs: " + why);
+        config.line = LineOf(c);
         if (!seen.insert(config.name).second)
           throw InputError(path, LineOf(c), "configs: " + config.name + " repeated");
         scene->configs.push_back(config);
@@ -82,6 +108,15 @@ void ReadPart(const std::string& path, const YAML::Node& part, BenchScene* scene
   }
   if (!has_duration || !has_seeds || !has_configs)
     throw InputError(path, LineOf(part), "a part needs duration_s, seeds and configs");
+  for (BenchConfig& c : scene->configs) {
+    if (c.seeds.empty()) c.seeds = scene->seeds;
+    for (unsigned seed : c.seeds) {
+      if (std::find(scene->seeds.begin(), scene->seeds.end(), seed) == scene->seeds.end())
+        throw InputError(path, c.line,
+                         "configs: " + c.name + ": seed " + std::to_string(seed) +
+                             " is not one of the scene's seeds");
+    }
+  }
 }
 
 }  // namespace
@@ -136,6 +171,7 @@ BenchSuite ReadBenchSuite(const std::string& path, bool quick) {
     if (!n.IsMap()) throw InputError(path, line, "each scene is a map");
     BenchScene scene;
     YAML::Node part;
+    bool has_part = false;
     for (const auto& kv : n) {
       const std::string key = kv.first.as<std::string>();
       if (key == "name") {
@@ -146,7 +182,10 @@ BenchSuite ReadBenchSuite(const std::string& path, bool quick) {
       } else if (key == "why") {
         scene.why = kv.second.as<std::string>();
       } else if (key == "full" || key == "quick") {
-        if (key == part_key) part = kv.second;
+        if (key == part_key) {
+          part.reset(kv.second);
+          has_part = true;
+        }
       } else {
         throw InputError(path, LineOf(kv.first),
                          "unknown key '" + key + "' (known: name, scene, why, full, quick)");
@@ -159,7 +198,7 @@ BenchSuite ReadBenchSuite(const std::string& path, bool quick) {
       throw InputError(path, line, "scene " + scene.name + ": no scene file");
     if (!names.insert(scene.name).second)
       throw InputError(path, line, "scene name " + scene.name + " repeated");
-    if (!part) continue;  // not part of this benchmark
+    if (!has_part) continue;  // not part of this benchmark
     ReadPart(path, part, &scene);
     suite.scenes.push_back(scene);
   }

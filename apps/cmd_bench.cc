@@ -358,6 +358,10 @@ std::string GateTable(const std::vector<GateResult>& results) {
   return md.str();
 }
 
+bool RunsOn(const BenchConfig& c, unsigned seed) {
+  return std::find(c.seeds.begin(), c.seeds.end(), seed) != c.seeds.end();
+}
+
 // Expected cost of a job [s on one core], for the order only (measured on the 2-core machine).
 double RenderCost(const sim::Scene& scene, double duration_s) {
   const double frames = duration_s * scene.camera_rate_hz;
@@ -469,6 +473,7 @@ void RunBench(const BenchArgs& args) {
     // One given sequence: the first scene's configurations on it, its first seed.
     suite.scenes.resize(1);
     suite.scenes[0].seeds.resize(1);
+    for (BenchConfig& c : suite.scenes[0].configs) c.seeds = suite.scenes[0].seeds;
   }
   RunConfig base = args.config.empty() ? RunConfig() : ReadRunConfig(args.config);
   base.gt_corners.pixel_sigma = args.pixel_sigma;
@@ -510,9 +515,9 @@ void RunBench(const BenchArgs& args) {
                        "1",
                        "--no-video"};
         // Images only when a front end reads pixels: gt-corners needs the frame list alone.
-        const bool pixels =
-            std::any_of(scene.configs.begin(), scene.configs.end(),
-                        [](const BenchConfig& c) { return c.frontend != "gt-corners"; });
+        const bool pixels = std::any_of(
+            scene.configs.begin(), scene.configs.end(),
+            [&](const BenchConfig& c) { return c.frontend != "gt-corners" && RunsOn(c, seed); });
         if (!pixels) render.argv.push_back("--no-images");
         render.log = (out / "logs" / ("render_" + tag + ".log")).string();
         render.cost = pixels ? RenderCost(*loaded, scene.duration_s) : 0.5;
@@ -522,6 +527,7 @@ void RunBench(const BenchArgs& args) {
         ++sequences;
       }
       for (const BenchConfig& config : scene.configs) {
+        if (!RunsOn(config, seed)) continue;
         RunSpec spec;
         spec.scene = si;
         spec.seed = seed;
@@ -562,14 +568,18 @@ void RunBench(const BenchArgs& args) {
   std::map<size_t, size_t> run_of_job;
   for (size_t k = 0; k < runs.size(); ++k) run_of_job[runs[k].job] = k;
   size_t finished = 0;
+  std::vector<bool> job_ok(jobs.size(), false);
   const auto on_done = [&](size_t j, const JobResult& r) {
     ++finished;
+    job_ok[j] = r.ok();
     std::string what;
-    if (!r.ok()) {
-      what = r.started
-                 ? "failed (exit " + std::to_string(r.exit_code) + "): " + LastLine(jobs[j].log)
-                 : "not run: " + (jobs[j].after >= 0 ? std::string("its sequence failed")
-                                                     : LastLine(jobs[j].log));
+    if (r.started && !r.ok()) {
+      what = "failed (exit " + std::to_string(r.exit_code) + "): " + LastLine(jobs[j].log);
+    } else if (!r.started) {
+      const int after = jobs[j].after;
+      what = after >= 0 && !job_ok[static_cast<size_t>(after)]
+                 ? "not run: its sequence was not rendered"
+                 : "not started: " + LastLine(jobs[j].log);
     }
     if (run_of_job.count(j)) {
       RunSpec& spec = runs[run_of_job[j]];
@@ -611,6 +621,7 @@ void RunBench(const BenchArgs& args) {
       c["frontend"] = config.frontend;
       c["landmarks"] = LandmarkName(config.landmarks);
       c["mode"] = ModeName(config.mode);
+      c["seeds"] = config.seeds;
       Json by_seed = Json::object();
       std::vector<const Json*> rows;
       int ok = 0;

@@ -124,7 +124,7 @@ def top_view(name, runs, path):
     for k in range(n, rows * cols):
         axes[k // cols][k % cols].axis("off")
     fig.suptitle("%s: top view, ground truth (grey, black) and estimate (red)" % name)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path, dpi=90)
     plt.close(fig)
 
@@ -237,41 +237,48 @@ STAGES = [("track", "track"), ("detect", "detect"), ("associate", "associate"),
           ("frontend", "front end"), ("backend", "back end")]
 
 
+def stage_entries(st):
+    """(label, ms) of the stages a run measured: medians, and the back end's p90."""
+    entries = [(label, st[key]["median"]) for key, label in STAGES
+               if isinstance(st.get(key), dict) and st[key].get("count", 0) > 0]
+    if isinstance(st.get("backend"), dict) and st["backend"].get("count", 0) > 0:
+        entries.append(("back end p90", st["backend"]["p90"]))
+    return entries
+
+
 def timing(name, runs, path):
     configs = list(runs)
-    fig, ax = plt.subplots(figsize=(10, 0.9 * len(configs) + 1.8))
-    bars = []  # (label, colour)
-    height = 0.8 / (len(STAGES) + 1)
-    colours = ["#bcbd22", "#17becf", "#e377c2", "#ff7f0e", "#1f77b4", "#aec7e8"]
+    entries = {c: stage_entries(runs[c][1].get("stage_ms", {})) for c in configs}
+    labels = []
+    for c in configs:
+        for label, _ in entries[c]:
+            if label not in labels:
+                labels.append(label)
+    colours = dict(zip(labels, ["#bcbd22", "#17becf", "#e377c2", "#ff7f0e", "#1f77b4",
+                                "#aec7e8"]))
+    most = max(1, max(len(e) for e in entries.values()))
+    height = 0.8 / most
+    fig, ax = plt.subplots(figsize=(10, 0.25 * most * len(configs) + 1.6))
     for n, config in enumerate(configs):
-        _, s, mean = runs[config]
-        st = s.get("stage_ms", {})
-        k = 0
-        y0 = n - 0.4 + height / 2
-        entries = [(label, st[key]["median"]) for key, label in STAGES
-                   if isinstance(st.get(key), dict) and st[key].get("count", 0) > 0]
-        if isinstance(st.get("backend"), dict) and st["backend"].get("count", 0) > 0:
-            entries.append(("back end p90", st["backend"]["p90"]))
-        for label, value in entries:
-            if label not in [b[0] for b in bars]:
-                bars.append((label, colours[len(bars) % len(colours)]))
-            colour = dict(bars)[label]
-            ax.barh(y0 + k * height, max(value, 1e-3), height, color=colour, label=label)
-            k += 1
-        rt = mean.get("realtime_factor")
-        if rt is not None:
-            ax.text(1.01, n, "%.1fx real time" % rt, transform=ax.get_yaxis_transform(),
-                    va="center", fontsize=8)
+        for k, (label, value) in enumerate(entries[config]):
+            ax.barh(n - 0.4 + height * (k + 0.5), max(value, 1e-3), height * 0.9,
+                    color=colours[label], label=label)
+            ax.text(max(value, 1e-3) * 1.05, n - 0.4 + height * (k + 0.5), "%.3g" % value,
+                    va="center", fontsize=7)
+    ticks = []
+    for config in configs:
+        rt = runs[config][2].get("realtime_factor")
+        ticks.append(config + ("\n%.1fx real time" % rt if rt is not None else ""))
     ax.set_yticks(range(len(configs)))
-    ax.set_yticklabels(configs, fontsize=8)
+    ax.set_yticklabels(ticks, fontsize=8)
     ax.invert_yaxis()
     ax.set_xscale("log")
-    ax.set_xlabel("milliseconds per frame (median; seed of the other plots)")
-    ax.grid(True, which="both", axis="x", lw=0.3)
-    handles, labels = ax.get_legend_handles_labels()
-    unique = dict(zip(labels, handles))
+    ax.set_xlabel("milliseconds per frame (median unless p90; the seed of the other plots)")
+    ax.grid(True, which="major", axis="x", lw=0.3)
+    handles, names = ax.get_legend_handles_labels()
+    unique = dict(zip(names, handles))
     ax.legend(unique.values(), unique.keys(), fontsize=8, loc="lower right")
-    ax.set_title("%s: time per stage (real-time factor: seed mean)" % name)
+    ax.set_title("%s: time per stage and frame (real-time factor: seed mean)" % name)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
