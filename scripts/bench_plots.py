@@ -30,6 +30,7 @@ try:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib import ticker
 except ImportError:
     fail("python3-matplotlib is missing (Debian: apt-get install python3-matplotlib); no plots", 3)
 
@@ -80,12 +81,20 @@ def paired(configs):
     return keep or list(configs)
 
 
+def log_axis(axis):
+    """A log axis labelled at 1, 2, 5 x 10^k in plain numbers."""
+    axis.set_major_locator(ticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(ticker.FuncFormatter(lambda v, _: "%g" % v))
+    axis.set_minor_formatter(ticker.NullFormatter())
+
+
 def top_view(name, runs, path):
     configs = list(runs)
     n = len(configs)
     cols = min(3, n)
     rows = (n + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.6 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.6 * rows), squeeze=False,
+                             layout="constrained")
     for k, config in enumerate(configs):
         ax = axes[k // cols][k % cols]
         seed, s, mean = runs[config]
@@ -116,16 +125,17 @@ def top_view(name, runs, path):
         ax.set_title("%s, seed %s%s" % (config, seed,
                                         ", ATE %.2f cm" % (100 * s_ate(s)) if "ate_m" in s else ""),
                      fontsize=10)
-        ax.set_xlabel("x [m]")
-        ax.set_ylabel("y [m]")
+        if k + cols >= n:  # the lowest panel of its column
+            ax.set_xlabel("x [m]")
+        if k % cols == 0:
+            ax.set_ylabel("y [m]")
         ax.grid(True, lw=0.3)
         if k == 0:
             ax.legend(loc="best", fontsize=8)
     for k in range(n, rows * cols):
         axes[k // cols][k % cols].axis("off")
     fig.suptitle("%s: top view, ground truth (grey, black) and estimate (red)" % name)
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.15)
     plt.close(fig)
 
 
@@ -150,7 +160,8 @@ def rpe(name, runs, path):
         axes[1].plot(t, s["rpe_rot_deg"], color=colour, ls=ls, lw=0.8)
     for ax in axes:
         ax.set_yscale("log")
-        ax.grid(True, which="both", lw=0.3)
+        log_axis(ax.yaxis)
+        ax.grid(True, which="major", lw=0.3)
     axes[0].set_ylabel("translation error [cm]")
     axes[1].set_ylabel("rotation error [deg]")
     axes[1].set_xlabel("time [s]")
@@ -158,7 +169,7 @@ def rpe(name, runs, path):
     axes[0].set_title("%s: relative pose error per step (consecutive frames), FSP solid, FHP dashed"
                       % name)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.15)
     plt.close(fig)
 
 
@@ -186,11 +197,12 @@ def corners(name, runs, path):
     ax.set_xlabel("object id (its four corners s1..s4 side by side)")
     ax.set_ylabel("corner 3D error [cm]")
     ax.set_yscale("log")
-    ax.grid(True, which="both", axis="y", lw=0.3)
+    log_axis(ax.yaxis)
+    ax.grid(True, which="major", axis="y", lw=0.3)
     ax.legend(fontsize=8, ncol=2)
     ax.set_title("%s: corner error per corner after SE3 alignment, FSP (o) and FHP (^)" % name)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.15)
     plt.close(fig)
     return True
 
@@ -228,7 +240,7 @@ def sizes(name, runs, path):
     axes[0].legend(fontsize=8, ncol=2)
     axes[0].set_title("%s: width and height error per object, FSP (plain) and FHP (hatched)" % name)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.15)
     plt.close(fig)
     return True
 
@@ -273,6 +285,7 @@ def timing(name, runs, path):
     ax.set_yticklabels(ticks, fontsize=8)
     ax.invert_yaxis()
     ax.set_xscale("log")
+    log_axis(ax.xaxis)
     ax.set_xlabel("milliseconds per frame (median unless p90; the seed of the other plots)")
     ax.grid(True, which="major", axis="x", lw=0.3)
     handles, names = ax.get_legend_handles_labels()
@@ -280,7 +293,7 @@ def timing(name, runs, path):
     ax.legend(unique.values(), unique.keys(), fontsize=8, loc="lower right")
     ax.set_title("%s: time per stage and frame (real-time factor: seed mean)" % name)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.15)
     plt.close(fig)
 
 
