@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -594,7 +595,7 @@ void RunBench(const BenchArgs& args) {
       if (r.ok()) {
         try {
           spec.row = EvaluateRun(spec, out);
-        } catch (const InputError& e) {
+        } catch (const std::exception& e) {  // one run's bad output must not stop the suite
           spec.row = {{"error", std::string("evaluation: ") + e.what()}};
         }
       } else {
