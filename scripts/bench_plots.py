@@ -82,8 +82,11 @@ def paired(configs):
 
 
 def log_axis(axis):
-    """A log axis labelled at 1, 2, 5 x 10^k in plain numbers."""
-    axis.set_major_locator(ticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    """A log axis labelled in plain numbers at 1, 2, 5 x 10^k (at 10^k over more than 3 decades);
+    call after plotting (it reads the data limits)."""
+    lo, hi = axis.get_view_interval()
+    wide = lo > 0 and hi / lo > 1e3
+    axis.set_major_locator(ticker.LogLocator(base=10, subs=(1.0,) if wide else (1.0, 2.0, 5.0)))
     axis.set_major_formatter(ticker.FuncFormatter(lambda v, _: "%g" % v))
     axis.set_minor_formatter(ticker.NullFormatter())
 
