@@ -29,6 +29,7 @@
 #include "commands.h"
 #include "fsp/common/error.h"
 #include "fsp/eval/evaluate.h"
+#include "fsp/eval/stats.h"
 #include "fsp/sim/scene.h"
 #include "pipeline.h"
 #include "run_config.h"
@@ -237,7 +238,8 @@ Json EvaluateRun(const RunSpec& spec, const fs::path& out) {
   return row;
 }
 
-// Mean, min and max over the seeds of every numeric metric.
+// Mean, min and max over the seeds of every numeric metric (eval::ComputeStats: every metric here
+// is non-negative).
 Json Aggregate(const std::vector<const Json*>& rows) {
   std::map<std::string, std::vector<double>> values;
   std::vector<std::string> order;
@@ -251,12 +253,10 @@ Json Aggregate(const std::vector<const Json*>& rows) {
   }
   Json mean = Json::object(), lo = Json::object(), hi = Json::object();
   for (const std::string& k : order) {
-    const std::vector<double>& v = values[k];
-    double sum = 0.0;
-    for (double x : v) sum += x;
-    mean[k] = sum / static_cast<double>(v.size());
-    lo[k] = *std::min_element(v.begin(), v.end());
-    hi[k] = *std::max_element(v.begin(), v.end());
+    const eval::ErrorStats st = eval::ComputeStats(values[k]);
+    mean[k] = st.mean;
+    lo[k] = st.min;
+    hi[k] = st.max;
   }
   return {{"mean", mean}, {"min", lo}, {"max", hi}};
 }

@@ -58,7 +58,8 @@ def style_order(configs):
 
 
 def load_series(base, scene):
-    """{config: (seed, series, aggregate mean)} for the first successful seed of each config."""
+    """{config: (seed, series, aggregate mean, the run's metrics)} for the first successful seed
+    of each config."""
     out = {}
     for config, c in scene["configs"].items():
         for seed, run in c["runs"].items():
@@ -68,7 +69,7 @@ def load_series(base, scene):
             if not os.path.exists(path):
                 continue
             with open(path) as f:
-                out[config] = (seed, json.load(f), c["aggregate"]["mean"])
+                out[config] = (seed, json.load(f), c["aggregate"]["mean"], run)
             break
     return out
 
@@ -100,7 +101,7 @@ def top_view(name, runs, path):
                              layout="constrained")
     for k, config in enumerate(configs):
         ax = axes[k // cols][k % cols]
-        seed, s, mean = runs[config]
+        seed, s, _, run = runs[config]
         for o in s.get("objects_gt", []):
             xs = [p[0] for p in o["corners_W"]] + [o["corners_W"][0][0]]
             ys = [p[1] for p in o["corners_W"]] + [o["corners_W"][0][1]]
@@ -125,8 +126,8 @@ def top_view(name, runs, path):
             ax.set_xlim(min(xs) - pad, max(xs) + pad)
             ax.set_ylim(min(ys) - pad, max(ys) + pad)
         ax.set_aspect("equal")
-        ax.set_title("%s, seed %s%s" % (config, seed,
-                                        ", ATE %.2f cm" % (100 * s_ate(s)) if "ate_m" in s else ""),
+        ate = run.get("ate_se3_m")
+        ax.set_title("%s, seed %s%s" % (config, seed, ", ATE %.2f cm" % (100 * ate) if ate else ""),
                      fontsize=10)
         if k + cols >= n:  # the lowest panel of its column
             ax.set_xlabel("x [m]")
@@ -142,18 +143,12 @@ def top_view(name, runs, path):
     plt.close(fig)
 
 
-def s_ate(s):
-    """ATE rmse of one run's series [m]."""
-    e = s["ate_m"]
-    return (sum(x * x for x in e) / len(e)) ** 0.5 if e else 0.0
-
-
 def rpe(name, runs, path):
     configs = paired(list(runs))
     order = style_order(configs)
     fig, axes = plt.subplots(2, 1, figsize=(11, 6.5), sharex=True)
     for config in configs:
-        seed, s, _ = runs[config]
+        seed, s, _, _ = runs[config]
         if "rpe_trans_m" not in s or not s["rpe_trans_m"]:
             continue
         t = s["t_s"][1:]
@@ -186,7 +181,7 @@ def corners(name, runs, path):
     fig, ax = plt.subplots(figsize=(max(8, 0.5 * len(ids) + 3), 4.5))
     width = 0.8 / max(1, len(configs))
     for n, config in enumerate(configs):
-        seed, s, _ = runs[config]
+        seed, s, _, _ = runs[config]
         colour, ls = style(config, order)
         xs, ys = [], []
         for o in s.get("per_object", []):
@@ -220,7 +215,7 @@ def sizes(name, runs, path):
     fig, axes = plt.subplots(2, 1, figsize=(max(8, 0.5 * len(ids) + 3), 6.5), sharex=True)
     width = 0.8 / max(1, len(configs))
     for n, config in enumerate(configs):
-        seed, s, _ = runs[config]
+        seed, s, _, _ = runs[config]
         colour, ls = style(config, order)
         per = s.get("per_object", [])
         xs = [index[o["id"]] - 0.4 + width * (n + 0.5) for o in per]
