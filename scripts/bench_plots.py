@@ -266,20 +266,24 @@ def timing(name, runs, path):
                 labels.append(label)
     colours = dict(zip(labels, ["#bcbd22", "#17becf", "#e377c2", "#ff7f0e", "#1f77b4",
                                 "#aec7e8"]))
-    most = max(1, max(len(e) for e in entries.values()))
-    height = 0.8 / most
-    fig, ax = plt.subplots(figsize=(10, 0.25 * most * len(configs) + 1.6))
-    for n, config in enumerate(configs):
-        for k, (label, value) in enumerate(entries[config]):
-            ax.barh(n - 0.4 + height * (k + 0.5), max(value, 1e-3), height * 0.9,
-                    color=colours[label], label=label)
-            ax.text(max(value, 1e-3) * 1.05, n - 0.4 + height * (k + 0.5), "%.3g" % value,
-                    va="center", fontsize=7)
+    # Each configuration takes as many bar slots as it has stages, plus a gap.
+    height = 0.8
+    centres, y = [], 0.0
+    total = sum(len(entries[c]) for c in configs) + len(configs)
+    fig, ax = plt.subplots(figsize=(10, 0.22 * total + 1.6))
+    for config in configs:
+        first = y
+        for label, value in entries[config]:
+            ax.barh(y, max(value, 1e-3), height, color=colours[label], label=label)
+            ax.text(max(value, 1e-3) * 1.05, y, "%.3g" % value, va="center", fontsize=7)
+            y += 1.0
+        centres.append(0.5 * (first + y - 1.0))
+        y += 1.0
     ticks = []
     for config in configs:
         rt = runs[config][2].get("realtime_factor")
         ticks.append(config + ("\n%.1fx real time" % rt if rt is not None else ""))
-    ax.set_yticks(range(len(configs)))
+    ax.set_yticks(centres)
     ax.set_yticklabels(ticks, fontsize=8)
     ax.invert_yaxis()
     ax.set_xscale("log")
@@ -288,7 +292,7 @@ def timing(name, runs, path):
     ax.grid(True, which="major", axis="x", lw=0.3)
     handles, names = ax.get_legend_handles_labels()
     unique = dict(zip(names, handles))
-    ax.legend(unique.values(), unique.keys(), fontsize=8, loc="lower right")
+    ax.legend(unique.values(), unique.keys(), fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
     ax.set_title("%s: time per stage and frame (real-time factor: seed mean)" % name)
     fig.tight_layout()
     fig.savefig(path, dpi=90, bbox_inches="tight", pad_inches=0.15)
