@@ -400,8 +400,8 @@ std::string MakePlots(const BenchArgs& args, const fs::path& out, std::vector<st
     if (e.path().extension() == ".png") files.push_back(e.path());
   std::sort(files.begin(), files.end());
   for (const fs::path& p : files) pngs->push_back(fs::relative(p, out).string());
-  return "Plots: " + std::to_string(pngs->size()) + " PNG files in plots/ (" + args.plot_script +
-         ", matplotlib).";
+  return "Plots: " + std::to_string(pngs->size()) + " PNG files in plots/ (" +
+         RepoRelative(args.plot_script) + ", matplotlib).";
 }
 
 std::string Report(const BenchArgs& args, const Json& metrics, const BenchSuite& suite,
