@@ -51,7 +51,9 @@ void RunRender(const RenderArgs& args) {
     std::printf("rendered in %.2f s: %.1f frames/s on %d threads\n", s.render_wall_s, s.render_fps,
                 options.threads);
   } else {
-    std::printf("images not rendered (--no-images)\n");
+    std::printf(
+        "images not rendered (--no-images: one grey placeholder; gt-corners runs read no "
+        "pixels)\n");
   }
   if (!s.top_view_path.empty()) std::printf("top view: %s\n", s.top_view_path.c_str());
 }
@@ -86,7 +88,8 @@ void AddRenderCommand(CLI::App& root) {
       ->check(CLI::Range(1, 64));
   sub->add_flag(
       "--no-images", args->no_images,
-      "debugging aid: write IMU, ground truth and the top view only (no images, no video)");
+      "write IMU, ground truth and the top view only (no images, no video): much faster; the\n"
+      "frame list names one grey placeholder image, enough for `fsp run --frontend gt-corners`");
   sub->add_flag("!--no-video", args->options.video, "do not write video.mp4");
   sub->callback([args] { RunRender(*args); });
 }

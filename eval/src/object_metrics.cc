@@ -169,6 +169,7 @@ ObjectMetrics EvaluateObjects(const std::vector<ObjectRecord>& gt,
     for (size_t j = 0; j < 4; ++j) {
       const double err = (aligned[j] - g.corners_W[j]).norm();
       corner.push_back(err);
+      oe.corner_err_m[j] = err;
       oe.corner_err_mean_m += 0.25 * err;
     }
     // Sizes: |s w_est − w_gt|, |s h_est − h_gt| [m].

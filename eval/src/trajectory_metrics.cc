@@ -160,14 +160,21 @@ TrajectoryMetrics EvaluateTrajectory(const Trajectory& ref, const Trajectory& es
   if (options.align == AlignMode::kSim3) m.scale_error = std::abs(m.alignment.scale - 1.0);
 
   // ATE: e_k = ‖s R p_est,k + t − p_ref,k‖ [m].
-  std::vector<double> ate(m.pairs);
-  for (size_t k = 0; k < m.pairs; ++k) ate[k] = (m.alignment.Apply(p_est[k]) - p_ref[k]).norm();
-  m.ate = ComputeStats(std::move(ate));
+  TrajectoryMetrics::Series& series = m.series;
+  series.ate.resize(m.pairs);
+  for (size_t k = 0; k < m.pairs; ++k) {
+    series.t_s.push_back(ref.t_s[assoc.ref[k]]);
+    series.p_est_aligned.push_back(m.alignment.Apply(p_est[k]));
+    series.ate[k] = (series.p_est_aligned[k] - p_ref[k]).norm();
+  }
+  series.p_ref = std::move(p_ref);
+  m.ate = ComputeStats(series.ate);
 
   // RPE, Δ = 1 associated pair: E_k = (Q_k⁻¹ Q_{k+1})⁻¹ (P_k⁻¹ P_{k+1}) with P the aligned estimate
   // (P = (R R_est, s R p_est + t), so only s matters); errors ‖trans(E_k)‖ [m] and
   // |angle(rot(E_k))| [deg].
-  std::vector<double> rpe_t, rpe_r;
+  std::vector<double>& rpe_t = series.rpe_trans;
+  std::vector<double>& rpe_r = series.rpe_rot;
   for (size_t k = 0; k + 1 < m.pairs; ++k) {
     const Rigid3 Q_rel = ref.T_W_B[assoc.ref[k]].Inverse() * ref.T_W_B[assoc.ref[k + 1]];
     const Rigid3 P_rel = m.alignment.Apply(est.T_W_B[assoc.est[k]]).Inverse() *
@@ -176,8 +183,8 @@ TrajectoryMetrics EvaluateTrajectory(const Trajectory& ref, const Trajectory& es
     rpe_t.push_back(E.translation().norm());
     rpe_r.push_back(LogQuat(E.rotation()).norm() * kRadToDeg);
   }
-  m.rpe_trans = ComputeStats(std::move(rpe_t));
-  m.rpe_rot = ComputeStats(std::move(rpe_r));
+  m.rpe_trans = ComputeStats(rpe_t);
+  m.rpe_rot = ComputeStats(rpe_r);
   return m;
 }
 

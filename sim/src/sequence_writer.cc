@@ -476,7 +476,19 @@ SequenceSummary WriteSequence(const Scene& scene, const std::string& out_dir,
       throw InputError(summary.top_view_path, 0, "cannot write image");
     }
   }
-  if (!options.images) return summary;
+  if (!options.images) {
+    // No pixels: every frame listed with one grey placeholder, so that the sequence opens as a
+    // recording for the front ends that read no pixels (gt-corners, corners).
+    const std::string placeholder = "no_pixels.png";
+    if (!cv::imwrite((data / placeholder).string(),
+                     cv::Mat(scene.camera.height, scene.camera.width, CV_8UC1, cv::Scalar(128))))
+      throw InputError((data / placeholder).string(), 0, "cannot write image");
+    std::ostringstream csv;
+    csv << "#timestamp [ns],filename\n";
+    for (int64_t t : frame_times) csv << t << "," << placeholder << "\n";
+    WriteText(cam0 / "data.csv", csv.str());
+    return summary;
+  }
 
   // Images: worker threads render frame k (pose at its time, or blurred over the exposure), add its
   // noise and write its PNG; this thread feeds the video in frame order. Workers stay at most

@@ -2,10 +2,7 @@
 
 #include <unistd.h>
 
-#include <fstream>
 #include <string>
-
-#include <opencv2/imgcodecs.hpp>
 
 #include "fsp/sim/scene.h"
 #include "fsp/sim/sequence_writer.h"
@@ -67,26 +64,11 @@ sim::Scene RoomLoopScene() {
 void WriteSequenceForGtCorners(const sim::Scene& scene, const fs::path& dir) {
   fs::remove_all(dir);
   sim::SequenceOptions options;
-  options.images = false;
+  options.images = false;  // frames listed with a placeholder image: gt-corners opens it
   options.video = false;
   options.top_view = false;
   options.progress = false;
   sim::WriteSequence(scene, dir.string(), options);
-  const fs::path cam0 = dir / "mav0" / "cam0";
-  fs::create_directories(cam0 / "data");
-  std::ofstream csv(cam0 / "data.csv");
-  csv << "#timestamp [ns],filename\n";
-  bool first = true;
-  for (const int64_t t_ns : sim::FrameTimes(scene)) {
-    const std::string name = std::to_string(t_ns) + ".png";
-    csv << t_ns << "," << name << "\n";
-    if (first)
-      cv::imwrite((cam0 / "data" / name).string(),
-                  cv::Mat(scene.camera.height, scene.camera.width, CV_8UC1, cv::Scalar(128)));
-    else
-      std::ofstream(cam0 / "data" / name);
-    first = false;
-  }
 }
 
 const fs::path& RoomLoopSequence() {

@@ -1,8 +1,7 @@
 // The room-loop sequence of the end-to-end tests that need a loop: the end-to-end room with an
 // object on each of its four walls, a 26 s flight around its centre that looks at each wall in
 // turn and comes back to the first (its objects return: a loop). Rendered once per test process
-// without images (ground truth, IMU, corners: about a second), with a cam0 frame list so that
-// `fsp run --frontend gt-corners` reads it.
+// without images (ground truth, IMU, corners: about a second).
 #pragma once
 
 #include <cstddef>

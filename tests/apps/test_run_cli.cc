@@ -89,29 +89,45 @@ TEST(BenchGate, ChecksBoundsAndTargets) {
   const fs::path dir = test::ScratchDir();
   test::WriteText(dir / "t.yaml",
                   "checks:\n"
-                  "  - {config: a, metric: err, max: 0.1, target: 0.01, enforced: true}\n"
-                  "  - {config: a, metric: speed, min: 5, target: 10, enforced: true}\n"
-                  "  - {config: b, metric: err, max: 0.1, enforced: false}\n");
+                  "  - {config: fsp-window, metric: err, max: 0.1, target: 0.01, enforced: true}\n"
+                  "  - {config: fsp-window, metric: speed, min: 5, target: 10, enforced: true}\n"
+                  "  - {config: rect/fhp-batch, metric: err, max: 0.1, enforced: false}\n"
+                  "  - {scene: hall, config: fsp-window, metric: err, max: 0.1}\n");
   const std::vector<GateCheck> checks = ReadGate((dir / "t.yaml").string());
-  ASSERT_EQ(checks.size(), 3u);
+  ASSERT_EQ(checks.size(), 4u);
   EXPECT_EQ(checks[1].line, 3);
-  nlohmann::ordered_json rows = {{"a", {{"err", 0.05}, {"speed", 7.0}}}, {"b", {{"err", 0.5}}}};
+  EXPECT_EQ(checks[0].scene, "default_room");  // the default scene and front end
+  EXPECT_EQ(checks[0].config, "gt-corners/fsp-window");
+  EXPECT_EQ(checks[2].config, "rect/fhp-batch");
+  EXPECT_EQ(checks[3].scene, "hall");
+  nlohmann::ordered_json rows = {{"default_room",
+                                  {{"gt-corners/fsp-window", {{"err", 0.05}, {"speed", 7.0}}},
+                                   {"rect/fhp-batch", {{"err", 0.5}}}}}};
   std::vector<GateResult> r = EvaluateGate(checks, rows);
   EXPECT_TRUE(r[0].pass);
   EXPECT_FALSE(*r[0].target_met);
   EXPECT_TRUE(r[1].pass);
-  EXPECT_FALSE(r[2].pass);  // outside, but not enforced
+  EXPECT_FALSE(r[2].pass);    // outside, but not enforced
+  EXPECT_TRUE(r[3].skipped);  // a scene the benchmark did not run: no verdict
   EXPECT_TRUE(GatePasses(r));
-  rows["a"]["speed"] = 4.0;
+  rows["default_room"]["gt-corners/fsp-window"]["speed"] = 4.0;
   EXPECT_FALSE(GatePasses(EvaluateGate(checks, rows)));
-  rows["a"].erase("err");  // a missing metric fails an enforced check
+  // A missing metric (every run of the configuration failed) fails an enforced check.
+  rows["default_room"]["gt-corners/fsp-window"].erase("err");
   r = EvaluateGate(checks, rows);
+  EXPECT_FALSE(r[0].skipped);
   EXPECT_FALSE(r[0].value.has_value());
   EXPECT_FALSE(r[0].pass);
 
-  test::WriteText(dir / "bad.yaml", "checks:\n  - {config: a, metric: err, maximum: 0.1}\n");
-  const std::string e = test::ErrorOf([&] { ReadGate((dir / "bad.yaml").string()); });
+  test::WriteText(dir / "bad.yaml",
+                  "checks:\n  - {config: fsp-window, metric: err, maximum: 0.1}\n");
+  std::string e = test::ErrorOf([&] { ReadGate((dir / "bad.yaml").string()); });
   EXPECT_NE(e.find("bad.yaml:2: unknown key 'maximum'"), std::string::npos) << e;
+  test::WriteText(dir / "bad.yaml", "checks:\n  - {config: fsp-walk, metric: err, max: 0.1}\n");
+  e = test::ErrorOf([&] { ReadGate((dir / "bad.yaml").string()); });
+  EXPECT_NE(e.find("bad.yaml:2: config: 'fsp-walk' is not FRONTEND/LANDMARKS-MODE"),
+            std::string::npos)
+      << e;
 }
 
 TEST(BenchGate, RepositoryThresholdsParse) {

@@ -81,6 +81,11 @@ void ExpectHandComputedObjectErrors(const ObjectMetrics& m) {
   ASSERT_EQ(m.per_object.size(), 2u);
   EXPECT_EQ(m.per_object[0].id, 1);
   EXPECT_NEAR(m.per_object[0].corner_err_mean_m, 0.05, 1e-9);
+  for (double e : m.per_object[0].corner_err_m) EXPECT_NEAR(e, 0.05, 1e-9);
+  EXPECT_NEAR(m.per_object[1].corner_err_m[0] + m.per_object[1].corner_err_m[1] +
+                  m.per_object[1].corner_err_m[3],
+              0.0, 1e-9);
+  EXPECT_NEAR(m.per_object[1].corner_err_m[2], 0.6, 1e-9);  // the moved corner c3
   EXPECT_NEAR(m.per_object[0].normal_err_deg, 0.0, 1e-6);
   // The window's normal: (c2 − c1) × (c4 − c1) is unchanged by moving c3.
   EXPECT_NEAR(m.per_object[1].normal_err_deg, 0.0, 1e-6);

@@ -201,6 +201,17 @@ TEST(EvaluateTrajectory, RpeOfHandMadeErrors) {
   // (the yaw stays 0): errors 0.25, 0.25, 0.25, 0.25.
   EXPECT_NEAR(m.ate.rmse, 0.25, 1e-12);
   EXPECT_NEAR(m.ate.median, 0.25, 1e-12);
+  // The series behind the statistics: per pair and per step.
+  ASSERT_EQ(m.series.t_s.size(), 4u);
+  ASSERT_EQ(m.series.ate.size(), 4u);
+  ASSERT_EQ(m.series.p_ref.size(), 4u);
+  ASSERT_EQ(m.series.p_est_aligned.size(), 4u);
+  EXPECT_DOUBLE_EQ(m.series.t_s[2], 1.2);
+  EXPECT_NEAR((m.series.p_est_aligned[2] - m.series.p_ref[2]).norm(), 0.25, 1e-12);
+  ASSERT_EQ(m.series.rpe_trans.size(), 3u);
+  EXPECT_NEAR(m.series.rpe_trans[0], 0.0, 1e-12);
+  EXPECT_NEAR(m.series.rpe_trans[1], 0.5, 1e-12);
+  EXPECT_NEAR(m.series.rpe_rot[2], 10.0, 1e-9);
 }
 
 TEST(EvaluateTrajectory, NoOverlapAndTooFewPairsAreClearErrors) {

@@ -53,6 +53,7 @@ struct ObjectError {
   int est_id = -1;       // the map's id matched to it
   int corner_shift = 0;  // cyclic shift r of the match's distance (0: corners in the same order)
   double corner_err_mean_m = 0.0;
+  std::array<double, 4> corner_err_m{};  // per corner s1..s4 (their mean is corner_err_mean_m)
   double width_err_m = 0.0;
   double height_err_m = 0.0;
   double normal_err_deg = 0.0;

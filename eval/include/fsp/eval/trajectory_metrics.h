@@ -77,6 +77,16 @@ struct TrajectoryMetrics {
   ErrorStats ate;            // [m]
   ErrorStats rpe_trans;      // [m] per consecutive pair (pairs − 1 values)
   ErrorStats rpe_rot;        // [deg]
+  // The series the statistics above summarise, for plots (`fsp bench`): per associated pair k, in
+  // the short trajectory's order, the reference time, the reference position, the aligned estimated
+  // position and its ATE error; per consecutive pair k, k+1 the RPE errors (pairs − 1 values, step
+  // k ends at t_s[k + 1]).
+  struct Series {
+    std::vector<double> t_s;  // reference time [s]
+    std::vector<Vec3> p_ref, p_est_aligned;
+    std::vector<double> ate;                 // [m]
+    std::vector<double> rpe_trans, rpe_rot;  // [m], [deg]
+  } series;
 };
 
 // Associates, aligns and measures. Throws InputError naming both sources when the trajectories do

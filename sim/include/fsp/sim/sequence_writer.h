@@ -23,8 +23,10 @@
 namespace fsp::sim {
 
 struct SequenceOptions {
-  bool images = true;    // false: no images and no video (ground truth, IMU, top view only): a fast
-                         // debugging aid, the sequence then does not open as a recording
+  bool images = true;    // false: no images and no video (ground truth, IMU, top view only), fast:
+                         // cam0/data.csv lists every frame with one grey placeholder image
+                         // (cam0/data/no_pixels.png), so the sequence opens as a recording for the
+                         // front ends that read no pixels (gt-corners, corners) and only for them
   bool video = true;     // also write video.mp4 (mp4v); imu.csv and calib.yaml are always written
   bool top_view = true;  // write top_view.png
   int threads = 2;       // frames rendered in parallel (the image of a frame does not depend on it)
