@@ -60,7 +60,9 @@ TEST(BenchSuite, RepositorySuite) {
       hall = true;
       // The batch on the 135 s flight solves keyframes (about real time): the full suite only.
       for (const BenchConfig& c : s.configs) {
-        if (quick) EXPECT_EQ(c.mode, backend::EstimatorMode::kWindow) << c.name;
+        if (quick) {
+          EXPECT_EQ(c.mode, backend::EstimatorMode::kWindow) << c.name;
+        }
       }
     }
     EXPECT_TRUE(hall);
