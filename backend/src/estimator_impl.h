@@ -223,14 +223,17 @@ struct Estimator::Impl {
   void AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs, const KeyframeState* initial,
                    const std::optional<Gauge>& gauge = std::nullopt);
 
-  // Whether a frame is kept as a keyframe (both modes). Kept: every keyframe_interval_s, and any
+  // Whether a frame is kept as a keyframe (both modes). Kept: every keyframe_interval_s
+  // (batch: batch_keyframe_interval_s), and any
   // frame that sees an object not in the map or (window mode) back after leaving the window (it may
   // become the object's anchor, and only keyframes can be anchors).
   bool IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const {
-    if (options.keyframe_interval_s <= 0.0) return true;
+    const double interval = options.mode == EstimatorMode::kBatch
+                                ? options.batch_keyframe_interval_s
+                                : options.keyframe_interval_s;
+    if (interval <= 0.0) return true;
     const Keyframe& last = *keyframes.back();  // a keyframe: a non-keyframe newest was just dropped
-    if (static_cast<double>(t_ns - last.state.t_ns) >= options.keyframe_interval_s * 1e9 - 1e6)
-      return true;
+    if (static_cast<double>(t_ns - last.state.t_ns) >= interval * 1e9 - 1e6) return true;
     const int first_in_window = keyframes[window_begin]->index;
     for (const ObjectObservation& o : obs) {
       auto it = objects.find(o.object_id);
