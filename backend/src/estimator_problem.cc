@@ -1,0 +1,237 @@
+// The estimator's problem builder (every keyframe and object of a set in one Ceres problem: the
+// batch's solves, the window's global step) and the map's covariance; the window's own problem is
+// built in estimator.cc from the same pieces (AddVisualFactors, AddObservation).
+#include "estimator_impl.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <thread>
+#include <tuple>
+#include <unordered_map>
+
+#include <ceres/ceres.h>
+
+#include "fsp/backend/fhp_factor.h"
+#include "fsp/backend/imu_factor.h"
+#include "fsp/backend/manifolds.h"
+#include "fsp/backend/marginalization.h"
+#include "fsp/backend/priors.h"
+#include "fsp/backend/reanchor.h"
+#include "fsp/backend/static_init.h"
+#include "fsp/common/error.h"
+#include "fsp/common/time.h"
+
+namespace fsp::backend {
+
+void Estimator::Impl::AddVisualFactors(ceres::Problem* problem, size_t begin, size_t end,
+                                       bool mature) {
+  const int first_index = keyframes[begin]->index;
+  auto is_variable = [first_index, mature](const Keyframe* k) {
+    return mature && k->index >= first_index;
+  };
+  std::vector<Object*> seen;
+  for (size_t i = begin; i < end; ++i) {
+    Keyframe* kf = keyframes[i].get();
+    for (const ObjectObservation& o : kf->observations) {
+      auto it = objects.find(o.object_id);
+      if (it == objects.end() || (it->second->observations >= options.mature_views) != mature)
+        continue;
+      AddObservation(problem, kf, it->second.get(), o.corners, is_variable);
+      seen.push_back(it->second.get());
+    }
+  }
+  std::sort(seen.begin(), seen.end(),
+            [](const Object* a, const Object* b) { return a->id < b->id; });
+  seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+  for (Object* obj : seen)
+    for (const auto& view : obj->past)
+      AddObservation(problem, view.keyframe, obj, view.corners, is_variable);
+}
+
+void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
+  sigmas.clear();
+  const bool fsp = options.landmarks == LandmarkType::kFsp;
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::SPARSE_QR;
+  co.num_threads = 1;
+  ceres::Covariance covariance(co);
+  std::vector<std::pair<const double*, const double*>> blocks;
+  std::vector<Object*> in_problem;
+  for (auto& [id, obj] : objects) {
+    if (!problem->HasParameterBlock(fsp ? obj->fsp.x : obj->fhp.corner[0])) continue;
+    in_problem.push_back(obj.get());
+    if (fsp) blocks.emplace_back(obj->fsp.x, obj->fsp.x);
+    for (int a = 0; !fsp && a < 4; ++a)
+      for (int b = a; b < 4; ++b) blocks.emplace_back(obj->fhp.corner[a], obj->fhp.corner[b]);
+  }
+  // The map's scale (EstimatorSummary::scale_sigma): the objects the map reports, with their
+  // cross-covariances.
+  std::vector<const Object*> mapped;
+  for (const Object* obj : in_problem)
+    if (fsp && obj->observations >= options.min_observations && !AtDepthBound(*obj))
+      mapped.push_back(obj);
+  for (size_t i = 0; i < mapped.size(); ++i)
+    for (size_t j = i + 1; j < mapped.size(); ++j)
+      blocks.emplace_back(mapped[i]->fsp.x, mapped[j]->fsp.x);
+  summary.scale_sigma = -1.0;
+  if (blocks.empty() || !covariance.Compute(blocks, problem)) return;
+  // ceres::Covariance orders its columns by parameter block address, so the last bits of a σ
+  // depend on heap layout; 9 significant digits keep the output deterministic and lose nothing.
+  const auto round9 = [](double v) {
+    if (!(v > 0.0)) return v;
+    const double scale = std::pow(10.0, 8 - static_cast<int>(std::floor(std::log10(v))));
+    return std::round(v * scale) / scale;
+  };
+  for (Object* obj : in_problem) {
+    const auto [sw, sh] = fsp ? FspSigmas(covariance, obj->fsp) : FhpSigmas(covariance, obj->fhp);
+    sigmas[obj] = {round9(sw), round9(sh)};
+  }
+  if (mapped.empty()) return;
+  // ½ (log w + log h) = log w̄ − log ω − ½ log f.
+  Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
+  g[kFspLogWbar] = 1.0;
+  g[kFspLogOmega] = -1.0;
+  g[kFspLogForm] = -0.5;
+  double var = 0.0;
+  for (size_t i = 0; i < mapped.size(); ++i)
+    for (size_t j = i; j < mapped.size(); ++j) {
+      double c[25];
+      covariance.GetCovarianceBlock(mapped[i]->fsp.x, mapped[j]->fsp.x, c);
+      const Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
+      var += (i == j ? 1.0 : 2.0) * g.dot(C * g);
+    }
+  const double n = static_cast<double>(mapped.size());
+  summary.scale_sigma = round9(std::sqrt(std::max(0.0, var)) / n);
+}
+
+void Estimator::Impl::AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj,
+                                     const Corners& corners,
+                                     const std::function<bool(const Keyframe*)>& is_variable) {
+  for (Keyframe* k : {kf, obj->anchor}) {
+    if (is_variable(k) || problem->HasParameterBlock(k->state.pose)) continue;
+    problem->AddParameterBlock(k->state.pose, kPoseSize, &pose_manifold);
+    problem->SetParameterBlockConstant(k->state.pose);
+  }
+  const Rigid3 T_W_C = CameraPose(*kf);
+  const Rigid3 T_W_F = CameraPose(*obj->anchor);
+  const bool at_anchor = obj->anchor == kf;
+  if (options.landmarks == LandmarkType::kFsp) {
+    if (!PredictFspCorners(K, T_W_C, T_W_F, obj->fsp).in_front) return;  // behind the camera
+    ceres::LossFunction* loss = MakeRobustLoss(options.robust, 8).release();
+    if (at_anchor) {
+      problem->AddResidualBlock(new FspAnchorFactor(corners, K, options.factor), loss,
+                                obj->fsp.q_F_O, obj->fsp.x);
+    } else {
+      problem->AddResidualBlock(new FspFactor(corners, K, T_B_C, options.factor), loss,
+                                kf->state.pose, obj->anchor->state.pose, obj->fsp.q_F_O,
+                                obj->fsp.x);
+    }
+    problem->SetManifold(obj->fsp.q_F_O, &quat_manifold);
+    BoundLogParameter(problem, obj->fsp.x, kFspLogOmega, options.min_depth_m, options.max_depth_m);
+  } else {
+    if (!PredictFhpCorners(K, T_W_C, T_W_F, obj->fhp).in_front) return;  // behind the camera
+    for (int j = 0; j < 4; ++j) {
+      ceres::LossFunction* loss = MakeRobustLoss(options.robust, 2).release();
+      if (at_anchor) {
+        problem->AddResidualBlock(new FhpAnchorFactor(corners[j], K, options.factor), loss,
+                                  obj->fhp.corner[j]);
+      } else {
+        problem->AddResidualBlock(new FhpFactor(corners[j], K, T_B_C, options.factor), loss,
+                                  kf->state.pose, obj->anchor->state.pose, obj->fhp.corner[j]);
+      }
+      BoundLogParameter(problem, obj->fhp.corner[j], 2, options.min_depth_m, options.max_depth_m);
+    }
+  }
+}
+
+std::string Estimator::Impl::Diverged(const ceres::Solver::Summary& s, const Snapshot& before,
+                                      const Keyframes& kfs) const {
+  const FaultOptions& f = options.faults;
+  if (s.termination_type == ceres::FAILURE || !std::isfinite(s.final_cost))
+    return "the solver failed";
+  char buf[128];
+  for (size_t k = 0; k < before.states.size(); ++k) {
+    const KeyframeState& st = kfs[before.begin + k]->state;
+    const Eigen::Map<const Eigen::Matrix<double, kPoseSize, 1>> pose(st.pose);
+    const Eigen::Map<const Eigen::Matrix<double, kSpeedBiasSize, 1>> sb(st.speed_bias);
+    if (!pose.allFinite() || !sb.allFinite()) return "a state is not finite";
+    const double jump = (st.T_W_B().translation() - before.states[k].T_W_B().translation()).norm();
+    const double speed = st.v_W().norm(), bg = st.gyro_bias().norm(), ba = st.acc_bias().norm();
+    if (speed > f.max_speed) {
+      std::snprintf(buf, sizeof(buf), "speed %.3g m/s", speed);
+    } else if (bg > f.max_gyro_bias) {
+      std::snprintf(buf, sizeof(buf), "gyroscope bias %.3g rad/s", bg);
+    } else if (ba > f.max_acc_bias) {
+      std::snprintf(buf, sizeof(buf), "accelerometer bias %.3g m/s^2", ba);
+    } else if (jump > f.max_jump_m) {
+      std::snprintf(buf, sizeof(buf), "a keyframe moved %.3g m in one solve", jump);
+    } else {
+      continue;
+    }
+    return buf;
+  }
+  return "";
+}
+
+std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs, int max_iterations,
+                                      ceres::Solver::Summary* s, ceres::Problem* problem,
+                                      size_t free_from) {
+  free_from = std::min(free_from, kfs->size() - 1);
+  const auto is_free = [free_from](const Keyframe* k) {
+    return k->index >= static_cast<int>(free_from);
+  };
+  for (size_t i = free_from; i < kfs->size(); ++i) AddStateBlocks(problem, (*kfs)[i].get());
+  if (free_from > 0) {
+    Keyframe* boundary = (*kfs)[free_from - 1].get();
+    AddStateBlocks(problem, boundary);
+    problem->SetParameterBlockConstant(boundary->state.pose);
+    problem->SetParameterBlockConstant(boundary->state.speed_bias);
+  }
+  for (size_t i = std::max<size_t>(free_from, 1); i < kfs->size(); ++i)
+    if (!(*kfs)[i]->gauge) AddImuFactor(problem, (*kfs)[i - 1].get(), (*kfs)[i].get());
+  for (size_t i = free_from; i < kfs->size(); ++i) {
+    Keyframe* kf = (*kfs)[i].get();
+    if (kf->gauge) AddGaugePriors(problem, kf);
+    if (kf->still)
+      problem->AddResidualBlock(MakeZeroVelocityPrior(*kf), nullptr, kf->state.speed_bias);
+  }
+  for (auto& kf : *kfs) {
+    for (const ObjectObservation& o : kf->observations) {
+      // Views from before an object's first_seen belong to an earlier instance of its id (a
+      // rejected loop, a restart); an object no free keyframe saw stays as it is.
+      auto it = objs->find(o.object_id);
+      if (it != objs->end() && kf->index >= it->second->first_seen &&
+          it->second->last_seen >= static_cast<int>(free_from))
+        AddObservation(problem, kf.get(), it->second.get(), o.corners, is_free);
+    }
+  }
+  AddObjectPriors(problem, objs);
+  const Snapshot before = Save(*kfs, *objs, free_from);
+  ceres::Solve(SolverOptions(max_iterations), problem, s);
+  const std::string diverged = Diverged(*s, before, *kfs);
+  if (!diverged.empty()) Restore(before, kfs, objs);
+  return diverged;
+}
+
+bool Estimator::Impl::SolveFull(int max_iterations, bool with_sigmas, const char* what,
+                                ceres::Solver::Summary* s) {
+  ceres::Problem problem(ProblemOptions());
+  const std::string diverged = SolveAll(&keyframes, &objects, max_iterations, s, &problem);
+  if (!diverged.empty()) {
+    Warn(keyframes.back()->state.t_ns,
+         std::string("divergence in ") + what + " (" + diverged + "): its result was rejected");
+    return false;
+  }
+  summary.final_cost = s->final_cost;
+  for (auto& kf : keyframes) output[kf->frame] = kf->state.ToStateSample();
+  if (with_sigmas) ComputeSigmas(&problem);
+  return true;
+}
+
+}  // namespace fsp::backend
