@@ -79,15 +79,17 @@ fs::path Images() {
   return Sequence() / "mav0" / "cam0" / "data";
 }
 
+int64_t TimeOf(const fs::path& image) {
+  return std::stoll(image.stem().string());
+}
+
+// The sequence's images in time order.
 std::vector<fs::path> ImageFiles() {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(Images())) files.push_back(e.path());
-  std::sort(files.begin(), files.end());
+  std::sort(files.begin(), files.end(),
+            [](const fs::path& a, const fs::path& b) { return TimeOf(a) < TimeOf(b); });
   return files;
-}
-
-int64_t TimeOf(const fs::path& image) {
-  return std::stoll(image.stem().string());
 }
 
 // The IMU csv's data lines with their times (copied byte for byte into the followed file).
