@@ -258,6 +258,42 @@ TEST(Live, ThreadedSystemEqualsSynchronousWithTheSameLag) {
   EXPECT_EQ(test::Slurp(dir / "cli" / "observations.csv"), sync0.observations);
 }
 
+// Frames given faster than the threads take them, with drop_oldest: a full queue drops its oldest
+// frame; every frame is either processed (in order) or counted as dropped.
+TEST(Live, ThreadedSystemDropsTheOldestWhenFull) {
+  SourceOptions source_options;
+  source_options.input = Sequence().string();
+  const std::unique_ptr<Source> source = OpenSource(source_options);
+  pipeline::SystemOptions options;
+  options.estimator.imu.noise = source->calibration().imu;
+  options.prediction_lag = 1;
+  pipeline::ThreadOptions threads;
+  threads.queue_frames = 1;
+  pipeline::ThreadedSystem slam(source->calibration(), options, threads);
+  int frames = 0, dropped = 0;
+  std::vector<int64_t> processed;
+  // All frames at once (no pacing): the threads cannot keep up.
+  while (std::optional<Measurement> m = source->Next()) {
+    if (const ImuSample* s = std::get_if<ImuSample>(&*m)) {
+      slam.AddImu(*s);
+    } else {
+      dropped += slam.AddFrame(std::get<Frame>(std::move(*m)), /*drop_oldest=*/true);
+      ++frames;
+    }
+  }
+  slam.Finish();
+  for (const pipeline::FrameResult& r : slam.TakeResults()) processed.push_back(r.frame.t_ns);
+  std::printf("[live] all frames at once, queue of 1: %zu processed, %d dropped of %d\n",
+              processed.size(), dropped, frames);
+  EXPECT_GT(dropped, 0);
+  EXPECT_EQ(static_cast<int>(processed.size()) + dropped, frames);
+  EXPECT_TRUE(std::is_sorted(processed.begin(), processed.end()));
+  // The newest frame is never the one dropped.
+  ASSERT_FALSE(processed.empty());
+  EXPECT_EQ(processed.back(), source->frame_times().back());
+  EXPECT_EQ(slam.CausalTrajectory().size(), processed.size());
+}
+
 // A camera driver fills the folder (images and a growing IMU csv inside it, one undecodable image
 // among them) while `fsp run --follow` follows it: every frame is processed, the undecodable one
 // skipped with a warning, the run ends on idle, and its outputs are those of the threaded library
