@@ -143,17 +143,31 @@ void Run(const RunArgs& args) {
 
 void AddRunCommand(CLI::App& root) {
   auto args = std::make_shared<RunArgs>();
-  auto* sub = root.add_subcommand("run",
-                                  "Run FSP-SLAM on a recording: INPUT is a EuRoC-layout folder (a "
-                                  "rendered sequence is one). Writes\n"
-                                  "trajectory.tum, map.json, observations.csv and run.json to "
-                                  "--out DIR. The front end gt-corners reads\n"
-                                  "a rendered sequence's ground-truth corners "
-                                  "(observations_gt.csv) plus pixel noise from the config;\n"
-                                  "corners reads another detector's corners (--corners FILE, "
-                                  "the same columns, distorted pixels).");
+  auto* sub = root.add_subcommand(
+      "run",
+      "Run FSP-SLAM on a recording: INPUT is a EuRoC-layout folder (a rendered sequence is one), "
+      "a\n"
+      "video or a folder of images named by nanosecond timestamps (both with --imu and --calib).\n"
+      "Writes trajectory.tum, trajectory_online.tum, map.json, observations.csv and run.json to\n"
+      "--out DIR (each file written under a temporary name and renamed: never seen half-written).\n"
+      "The front end gt-corners reads a rendered sequence's ground-truth corners\n"
+      "(observations_gt.csv) plus pixel noise from the config; corners reads another detector's\n"
+      "corners (--corners FILE, the same columns, distorted pixels).\n"
+      "Live use: --follow processes the images of a folder as a camera driver writes them (the "
+      "IMU\n"
+      "csv may grow too: complete lines are read as they appear) until no new image arrived for\n"
+      "--idle-s or SIGINT/SIGTERM; --realtime replays a recording at its rate and drops the "
+      "frames\n"
+      "the pipeline cannot keep up with (counted in run.json). Both run the front end and the "
+      "back\n"
+      "end on their own threads (predictions one frame older than in the default synchronous "
+      "run).\n"
+      "Exit 0 on success (also when stopped by SIGINT/SIGTERM: the outputs are written), 2 on bad\n"
+      "input (one line), 3 when a followed folder or IMU csv disappears (the outputs hold the "
+      "frames\n"
+      "processed).");
   sub->add_option("INPUT", args->request.source.input,
-                  "dataset folder (EuRoC layout: DIR/mav0 or mav0 itself)");
+                  "EuRoC-layout folder (DIR/mav0 or mav0 itself), video, or image folder");
   sub->add_option("--out", args->request.out_dir, "output folder (created)");
   sub->add_option("--calib", args->request.source.calib,
                   "calibration: EuRoC cam0/sensor.yaml, Kalibr camchain or fsp calib.yaml "

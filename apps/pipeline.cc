@@ -2,6 +2,11 @@
 
 #include "annotated_video.h"
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <opencv2/highgui.hpp>
 
 #include <algorithm>
@@ -57,15 +62,56 @@ const char* LandmarkName(backend::LandmarkType landmarks) {
 
 namespace {
 
+// Whether OpenCV can open a window, tried in a child process first: a GUI backend that cannot
+// reach the display may abort the whole process (Qt does) instead of throwing. Called before any
+// thread is started (fork copies only the calling thread).
+bool WindowOpensInChild() {
+  std::fflush(nullptr);
+  const pid_t pid = fork();
+  if (pid < 0) return false;
+  if (pid == 0) {
+    const int devnull = open("/dev/null", O_WRONLY);
+    if (devnull >= 0) {
+      dup2(devnull, STDOUT_FILENO);
+      dup2(devnull, STDERR_FILENO);
+    }
+    try {
+      cv::namedWindow("fsp probe", cv::WINDOW_AUTOSIZE);
+      cv::destroyAllWindows();
+    } catch (...) {
+      _exit(1);
+    }
+    _exit(0);
+  }
+  int status = 0;
+  const Clock::time_point give_up = Clock::now() + std::chrono::seconds(5);
+  for (;;) {
+    const pid_t done = waitpid(pid, &status, WNOHANG);
+    if (done == pid) break;
+    if (done < 0) return false;
+    if (Clock::now() > give_up) {  // a display that does not answer
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      return false;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
 // The live window of --show: the annotated frame where a display exists.
 class LiveWindow {
  public:
   // Opens the window; false (with WHY) when there is no display or no GUI backend.
   bool Open(std::string* why) {
     const char* display = std::getenv("DISPLAY");
-    const char* wayland = std::getenv("WAYLAND_DISPLAY");
-    if ((!display || !*display) && (!wayland || !*wayland)) {
+    if (!display || !*display) {
       *why = "--show: no display ($DISPLAY is not set): running without the window";
+      return false;
+    }
+    if (!WindowOpensInChild()) {
+      *why = std::string("--show: OpenCV cannot open a window on display ") + display +
+             " (no GUI backend, or the display does not answer): running without it";
       return false;
     }
     try {
@@ -205,6 +251,8 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
     frame_period_ns = static_cast<int64_t>(std::llround(1e9 / calibration.camera_rate_hz));
   }
 
+  LiveWindow window;  // before any thread starts (see WindowOpensInChild)
+  if (request.show && !window.Open(&why) && request.warn) request.warn(why);
   // Synchronous (the default) or threaded (live modes); one of the two.
   std::unique_ptr<pipeline::System> sync;
   std::unique_ptr<pipeline::ThreadedSystem> threaded;
@@ -234,8 +282,6 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   if (keep_images)
     video = std::make_unique<AnnotatedVideo>(request.video, calibration,
                                              frame_period_ns > 0 ? 1e9 / frame_period_ns : 20.0);
-  LiveWindow window;
-  if (request.show && !window.Open(&why) && request.warn) request.warn(why);
   std::unique_ptr<Progress> progress;
   if (request.progress) progress = std::make_unique<Progress>("run", report.frames);
   int frames_seen = 0;
