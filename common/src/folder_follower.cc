@@ -108,6 +108,8 @@ struct FolderFollower::Impl {
   std::deque<Measurement> ready;
   int64_t last_frame_t = 0;
   int frames = 0, imu_given = 0, skipped = 0, imu_dropped = 0;
+  static constexpr int kMaxNameWarnings = 5;
+  int bad_names = 0;  // image names that are not timestamps
   int64_t t_first = 0;
   FollowEnd end = FollowEnd::kRunning;
   std::string message;
@@ -162,7 +164,9 @@ struct FolderFollower::Impl {
       last_new = now;
       const std::optional<int64_t> t = TimestampOf(p);
       if (!t) {
-        Warn(path + ": image file name is not a nanosecond timestamp: ignored");
+        if (++bad_names <= kMaxNameWarnings)
+          Warn(path + ": image file name is not a nanosecond timestamp: ignored" +
+               (bad_names == kMaxNameWarnings ? " (further such names are ignored silently)" : ""));
         continue;
       }
       if (!times_seen.insert(*t).second) {

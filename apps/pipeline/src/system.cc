@@ -68,6 +68,7 @@ const SystemOptions& Checked(const SystemOptions& options) {
   std::string why;
   if (!options.estimator.Check(&why)) throw InputError("estimator: " + why);
   if (!options.frontend.Check(&why)) throw InputError("frontend: " + why);
+  if (options.prediction_lag < 0) throw InputError("prediction_lag must be >= 0");
   return options;
 }
 

@@ -9,7 +9,7 @@
 //    does not decode (and whose size has not changed meanwhile) is skipped with a warning; one
 //    whose size changed goes back to waiting. Writers that write to a temporary name and rename
 //    (the safe way) are followed as well: names that are not <t_ns>.<image extension> are ignored
-//    (a warning once for an image name that is not a timestamp).
+//    (a warning for the first few image names that are not timestamps).
 //  - The IMU csv: complete lines (ending in a newline) are read as they appear, a partial last
 //    line waits for its newline. Each line is checked as the IMU reader checks it; a malformed
 //    line ends the follow with an error.
