@@ -287,6 +287,9 @@ struct FolderFollower::Impl {
           q.complete_since.reset();
           break;
         }
+        // A writer that paused longer than a poll between two writes: try again until the file
+        // has not changed for stale_s.
+        if (!ec && !ending && SecondsSince(q.changed, now) < o.stale_s) break;
         Warn(std::string(e.what()) + ": skipped");
         ++skipped;
         Erase(it);

@@ -5,11 +5,12 @@
 // Polling, no inotify: every poll_s the folder is listed and the IMU csv read from where the last
 // poll stopped.
 //  - An image is taken once its size is the same (and not zero) in two polls, or once it has not
-//    changed for 1 s: a file still being written is never read half-written. An image that then
-//    does not decode (and whose size has not changed meanwhile) is skipped with a warning; one
-//    whose size changed goes back to waiting. Writers that write to a temporary name and rename
-//    (the safe way) are followed as well: names that are not <t_ns>.<image extension> are ignored
-//    (a warning for the first few image names that are not timestamps).
+//    changed for stale_s (1 s): a file still being written is never read half-written. An image
+//    that then does not decode is tried again at each poll until it has not changed for stale_s
+//    (a writer may pause between two writes), then skipped with a warning. Writers that write to a
+//    temporary name and rename (the safe way) are followed as well: names that are not
+//    <t_ns>.<image extension> are ignored (a warning for the first few image names that are not
+//    timestamps).
 //  - The IMU csv: complete lines (ending in a newline) are read as they appear, a partial last
 //    line waits for its newline. Each line is checked as the IMU reader checks it; a malformed
 //    line ends the follow with an error.
