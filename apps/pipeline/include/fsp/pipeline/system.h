@@ -21,13 +21,13 @@
 //
 // Predictions and determinism: the front end's predictions for frame k come from the back end's
 // state after frame k - 1 - prediction_lag. With lag 0 (System's default) the front end of frame k
-// waits for the back end of frame k - 1; with lag 1 (ThreadedSystem's default) the front end of
-// frame k runs while the back end solves frame k - 1, and the predictions are one frame older (one
-// more frame of IMU-only motion: the tracker's search and the map's gating of re-identification
-// start from a slightly worse guess; on the rendered rooms the outputs stay within the tests'
-// bounds, but they are not byte-identical to lag 0). Either way the outputs depend only on the
-// measurements and the frames given: System and ThreadedSystem with the same lag give
-// byte-identical outputs when no frame is dropped.
+// waits for the back end of frame k - 1; with lag 1 (what `fsp run` uses with threads) the front
+// end of frame k runs while the back end solves frame k - 1, and the predictions are one frame
+// older (one more frame of gyroscope-and-velocity extrapolation before the map gates a
+// re-identification; on the rendered test rooms this changes no output byte, where the map's
+// prediction decides a return it can). Either way the outputs depend only on the measurements and
+// the frames given, not on timing: System and ThreadedSystem with the same lag give byte-identical
+// outputs when no frame is dropped.
 #pragma once
 
 #include <cstdint>
