@@ -24,10 +24,10 @@
 // waits for the back end of frame k - 1; with lag 1 (what `fsp run` uses with threads) the front
 // end of frame k runs while the back end solves frame k - 1, and the predictions are one frame
 // older (one more frame of gyroscope-and-velocity extrapolation before the map gates a
-// re-identification; on the rendered test rooms this changes no output byte, where the map's
-// prediction decides a return it can). Either way the outputs depend only on the measurements and
-// the frames given, not on timing: System and ThreadedSystem with the same lag give byte-identical
-// outputs when no frame is dropped.
+// re-identification; on the rendered rooms, the 60 s default room from pixels included, this
+// changed no output byte; where the map's prediction decides a return it could). Either way the
+// outputs depend only on the measurements and the frames given, not on timing: System and
+// ThreadedSystem with the same lag give byte-identical outputs when no frame is dropped.
 #pragma once
 
 #include <cstdint>
