@@ -230,9 +230,9 @@ struct FolderFollower::Impl {
       TableReader reader(o.imu, "IMU csv", text, imu_line);
       internal::ReadImuRows(reader, &rows, &imu_prev_line);
     } catch (const InputError& e) {
+      // The rows before the bad line stand (the frames they cover are still given out).
       end = FollowEnd::kError;
       message = e.what();
-      return;
     }
     imu_offset += text.size();
     imu_line += static_cast<int>(std::count(text.begin(), text.end(), '\n'));
@@ -257,9 +257,11 @@ struct FolderFollower::Impl {
 
   // Moves the frames that can go (complete, IMU read up to their time) to `ready`; ENDING: every
   // frame still waiting, then the IMU samples left.
-  void Release(Clock::time_point now, bool ending) {
+  void Release(Clock::time_point now, bool ending,
+               int64_t up_to = std::numeric_limits<int64_t>::max()) {
     while (!pending.empty()) {
       auto it = pending.begin();
+      if (it->first + calib.time_offset_ns > up_to) break;
       Pending& q = it->second;
       const bool complete = ending || q.stable || SecondsSince(q.changed, now) >= o.stale_s;
       if (!complete) break;
@@ -315,7 +317,7 @@ struct FolderFollower::Impl {
       ready.emplace_back(std::move(frame));
       Erase(it);
     }
-    if (ending) GiveImuUpTo(std::numeric_limits<int64_t>::max());
+    if (ending) GiveImuUpTo(up_to);
   }
 };
 
@@ -354,6 +356,11 @@ std::optional<Measurement> FolderFollower::Next() {
     }
     const Clock::time_point now = Clock::now();
     d.Poll(now);
+    if (d.end == FollowEnd::kError) {
+      // A malformed IMU line: the frames the IMU read so far covers still go out.
+      if (d.imu_last) d.Release(now, true, d.imu_last->t_ns);
+      continue;
+    }
     if (d.end != FollowEnd::kRunning) continue;
     d.Release(now, false);
     if (!d.ready.empty()) continue;

@@ -407,6 +407,26 @@ TEST(Live, RealtimeCountsFramesAndDrops) {
   EXPECT_NO_THROW(nlohmann::json::parse(test::Slurp(out / "map.json")));
 }
 
+// A malformed line in the followed IMU csv ends the run: its line in one message, exit 2, and the
+// outputs of the frames the lines before it cover.
+TEST(Live, MalformedImuLineEndsTheFollowWithOutputs) {
+  const fs::path dir = test::ScratchDir();
+  const fs::path folder = dir / "cam", imu = dir / "imu.csv", out = dir / "run";
+  Driver driver(folder, imu);
+  driver.Write(0, ImageFiles().size(), std::chrono::milliseconds(0));
+  driver.WriteImuUpTo(std::numeric_limits<int64_t>::max());
+  std::ofstream(imu, std::ios::app) << "9000000000,abc,0,0,0,0,9.81\n";
+  const test::CommandResult r = test::RunFsp(FollowArgs(folder, imu, out, 30.0));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("imu.csv:" + std::to_string(ImuLines().size() + 1) + ": column 2 (wx)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(CountLines(r.err), 1u) << r.err;
+  const nlohmann::json run = nlohmann::json::parse(test::Slurp(out / "run.json"));
+  EXPECT_EQ(run["end"], "error");
+  EXPECT_EQ(run["frames_processed"].get<size_t>(), ImageFiles().size());
+}
+
 // Bad input: one clear line, exit 2, quickly.
 TEST(Live, BadInputIsOneLine) {
   const fs::path dir = test::ScratchDir();

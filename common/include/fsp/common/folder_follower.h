@@ -13,7 +13,7 @@
 //    timestamps).
 //  - The IMU csv: complete lines (ending in a newline) are read as they appear, a partial last
 //    line waits for its newline. Each line is checked as the IMU reader checks it; a malformed
-//    line ends the follow with an error.
+//    line ends the follow with an error (the frames covered by the lines before it still go out).
 //  - Order: frames in time order, each after the IMU samples up to its time. A frame waits until
 //    the IMU csv has reached its time, at most imu_wait_s; then it goes without them (the estimator
 //    bridges the gap with a warning) and IMU samples that arrive later than a frame already given
