@@ -2,13 +2,6 @@
 
 #include "annotated_video.h"
 
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <opencv2/highgui.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -26,6 +19,7 @@
 #include "fsp/common/trajectory_io.h"
 #include "fsp/pipeline/system.h"
 #include "gt_corners.h"
+#include "live_window.h"
 
 namespace fsp::apps {
 
@@ -61,82 +55,6 @@ const char* LandmarkName(backend::LandmarkType landmarks) {
 }
 
 namespace {
-
-// Whether OpenCV can open a window, tried in a child process first: a GUI backend that cannot
-// reach the display may abort the whole process (Qt does) instead of throwing. Called before any
-// thread is started (fork copies only the calling thread).
-bool WindowOpensInChild() {
-  std::fflush(nullptr);
-  const pid_t pid = fork();
-  if (pid < 0) return false;
-  if (pid == 0) {
-    const int devnull = open("/dev/null", O_WRONLY);
-    if (devnull >= 0) {
-      dup2(devnull, STDOUT_FILENO);
-      dup2(devnull, STDERR_FILENO);
-    }
-    try {
-      cv::namedWindow("fsp probe", cv::WINDOW_AUTOSIZE);
-      cv::destroyAllWindows();
-    } catch (...) {
-      _exit(1);
-    }
-    _exit(0);
-  }
-  int status = 0;
-  const Clock::time_point give_up = Clock::now() + std::chrono::seconds(5);
-  for (;;) {
-    const pid_t done = waitpid(pid, &status, WNOHANG);
-    if (done == pid) break;
-    if (done < 0) return false;
-    if (Clock::now() > give_up) {  // a display that does not answer
-      kill(pid, SIGKILL);
-      waitpid(pid, &status, 0);
-      return false;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
-}
-
-// The live window of --show: the annotated frame where a display exists.
-class LiveWindow {
- public:
-  // Opens the window; false (with WHY) when there is no display or no GUI backend.
-  bool Open(std::string* why) {
-    const char* display = std::getenv("DISPLAY");
-    if (!display || !*display) {
-      *why = "--show: no display ($DISPLAY is not set): running without the window";
-      return false;
-    }
-    if (!WindowOpensInChild()) {
-      *why = std::string("--show: OpenCV cannot open a window on display ") + display +
-             " (no GUI backend, or the display does not answer): running without it";
-      return false;
-    }
-    try {
-      cv::namedWindow(kName, cv::WINDOW_AUTOSIZE);
-    } catch (const cv::Exception& e) {
-      *why = "--show: OpenCV cannot open a window (" + FirstLine(e.err) + "): running without it";
-      return false;
-    }
-    open_ = true;
-    return true;
-  }
-  void Show(const cv::Mat& image) {
-    if (!open_ || image.empty()) return;
-    cv::imshow(kName, image);
-    cv::waitKey(1);
-  }
-  ~LiveWindow() {
-    if (open_) cv::destroyWindow(kName);
-  }
-
- private:
-  static std::string FirstLine(const std::string& s) { return s.substr(0, s.find('\n')); }
-  static constexpr const char* kName = "fsp run";
-  bool open_ = false;
-};
 
 // Sleeps until DUE, waking every 50 ms to look at STOP; false when STOP was set.
 bool SleepUntil(Clock::time_point due, const std::atomic<bool>* stop) {
