@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "fsp/common/atomic_file.h"
 #include "fsp/common/error.h"
 #include "fsp/frontend/draw.h"
 
@@ -22,6 +24,8 @@ cv::Point ToPoint(const Vec2& p) {
 
 struct AnnotatedVideo::Impl {
   Calibration calibration;
+  std::string path;  // empty: drawing only
+  std::string part;  // the file being written (PartPath(path))
   cv::VideoWriter writer;
   std::vector<Vec3> trajectory;  // body positions so far
 };
@@ -29,13 +33,32 @@ struct AnnotatedVideo::Impl {
 AnnotatedVideo::AnnotatedVideo(const std::string& path, const Calibration& calibration, double fps)
     : impl_(std::make_unique<Impl>()) {
   impl_->calibration = calibration;
+  impl_->path = path;
+  if (path.empty()) return;
+  impl_->part = PartPath(path);
   const cv::Size size(calibration.camera.width, calibration.camera.height);
-  if (!impl_->writer.open(path, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), fps > 0.0 ? fps : 20.0,
-                          size, true))
+  if (!impl_->writer.open(impl_->part, cv::VideoWriter::fourcc('m', 'p', '4', 'v'),
+                          fps > 0.0 ? fps : 20.0, size, true)) {
+    std::error_code ec;
+    std::filesystem::remove(impl_->part, ec);
     throw InputError(path + ": cannot write the video (--video)");
+  }
 }
 
-AnnotatedVideo::~AnnotatedVideo() = default;
+AnnotatedVideo::~AnnotatedVideo() {
+  if (impl_->writer.isOpened()) {
+    // Not closed: the run failed; no half video is left behind.
+    impl_->writer.release();
+    std::error_code ec;
+    std::filesystem::remove(impl_->part, ec);
+  }
+}
+
+void AnnotatedVideo::Close() {
+  if (!impl_->writer.isOpened()) return;
+  impl_->writer.release();
+  CommitPart(impl_->part, impl_->path);
+}
 
 void AnnotatedVideo::Add(const cv::Mat& image, const std::vector<ObjectObservation>& observations,
                          const std::vector<backend::MapObject>& map,
@@ -115,7 +138,7 @@ void AnnotatedVideo::Add(const cv::Mat& image, const std::vector<ObjectObservati
     cv::putText(out, label, cv::Point(box.x + 4, box.y + static_cast<int>(14 * scale)),
                 cv::FONT_HERSHEY_SIMPLEX, 0.8 * font, cv::Scalar(230, 230, 230), 1, cv::LINE_AA);
   }
-  impl_->writer.write(out);
+  if (impl_->writer.isOpened()) impl_->writer.write(out);
   last_ = out;
 }
 

@@ -20,10 +20,14 @@ namespace fsp::apps {
 
 class AnnotatedVideo {
  public:
-  // Opens PATH (mp4v) at FPS frames per second for frames of the calibration's size. Throws
-  // InputError when it cannot be written.
+  // Opens PATH (mp4v) at FPS frames per second for frames of the calibration's size; an empty PATH
+  // draws only (last(), for a live window). The video is written to a temporary name beside PATH
+  // (PartPath) and renamed to PATH by Close(): a reader never sees half a video, and a run that
+  // fails (no Close) leaves none. Throws InputError when it cannot be written.
   AnnotatedVideo(const std::string& path, const Calibration& calibration, double fps);
   ~AnnotatedVideo();
+  // Ends the video and renames it to PATH (throws InputError when that fails).
+  void Close();
   AnnotatedVideo(const AnnotatedVideo&) = delete;
   AnnotatedVideo& operator=(const AnnotatedVideo&) = delete;
 

@@ -1,8 +1,11 @@
 // fsp run INPUT --out DIR [--calib FILE] [--imu FILE] [--config FILE]
 //         [--frontend rect|apriltag|gt-corners|corners] [--corners FILE] [--objects FILE]
-//         [--landmarks fsp|fhp] [--mode window|batch] [--realtime] [--video FILE] [--seed N]
+//         [--landmarks fsp|fhp] [--mode window|batch] [--realtime] [--follow [--idle-s S]]
+//         [--video FILE] [--show] [--seed N]
 // Runs the pipeline on a recording and writes trajectory.tum, map.json, observations.csv and
 // run.json.
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -17,6 +20,24 @@
 namespace fsp::apps {
 
 namespace {
+
+// Set by SIGINT/SIGTERM during a live run (--follow, --realtime): the pipeline stops reading,
+// processes what is queued and writes its outputs. The handler resets itself: a second signal
+// ends the program at once.
+std::atomic<bool> g_stop{false};
+
+extern "C" void OnStopSignal(int /*signal*/) {
+  g_stop.store(true);
+}
+
+void InstallStopHandler() {
+  struct sigaction action {};
+  action.sa_handler = OnStopSignal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESETHAND;
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
 
 struct RunArgs {
   RunRequest request;
@@ -41,7 +62,16 @@ void Run(const RunArgs& args) {
   if (args.landmarks == "fhp") config.estimator.landmarks = backend::LandmarkType::kFhp;
   if (args.seed) config.gt_corners.seed = *args.seed;
 
-  const RunReport r = RunPipeline(args.request, config);
+  RunRequest request = args.request;
+  if (!(request.idle_s > 0.0)) throw InputError("fsp run: --idle-s must be > 0");
+  request.warn = [](const std::string& w) {
+    std::fprintf(stderr, "fsp: warning: %s\n", w.c_str());
+  };
+  if (request.follow || request.realtime) {
+    InstallStopHandler();
+    request.stop = &g_stop;
+  }
+  const RunReport r = RunPipeline(request, config);
   if (!r.summary.init_failure.empty()) {
     throw InputError("static initialisation refused: " + r.summary.init_failure);
   }
@@ -53,6 +83,15 @@ void Run(const RunArgs& args) {
   std::printf(
       "  frames %d (%d processed, %d dropped), keyframes %d, observations %d, objects in map %d\n",
       r.frames, r.frames_processed, r.frames_dropped, r.keyframes, r.observations, r.objects);
+  if (r.follow) {
+    std::printf("  followed until %s; %d images skipped, %d late IMU samples dropped\n",
+                r.end == "idle"      ? "idle"
+                : r.end == "stopped" ? "stopped (signal)"
+                                     : r.end.c_str(),
+                r.images_skipped, r.imu_dropped);
+  } else if (r.end == "stopped") {
+    std::printf("  stopped by a signal after %d frames\n", r.frames);
+  }
   if (!r.objects_non_finite_ids.empty()) {
     std::printf(
         "  warning: %zu objects had non-finite estimates and were left out of map.json (ids:",
@@ -82,25 +121,53 @@ void Run(const RunArgs& args) {
               r.backend_ms.median, r.backend_ms.p90, r.finish_ms);
   std::printf("  %.2f s of data in %.2f s wall: %.1fx real time\n", r.duration_s, r.wall_s,
               r.realtime_factor);
-  std::printf("  wrote trajectory.tum, map.json, observations.csv, run.json to %s\n",
-              args.request.out_dir.c_str());
+  std::printf(
+      "  wrote trajectory.tum, trajectory_online.tum, map.json, observations.csv%s, run.json to "
+      "%s\n",
+      args.request.video.empty() ? "" : (", " + args.request.video).c_str(),
+      args.request.out_dir.c_str());
+  // The followed input ended abnormally: the outputs hold what was processed.
+  if (r.end == "folder-gone") {
+    std::fprintf(stderr, "fsp: error: %s; the outputs of the %d frames processed are written\n",
+                 r.end_message.c_str(), r.frames_processed);
+    throw CLI::RuntimeError(3);
+  }
+  if (r.end == "error") {
+    std::fprintf(stderr, "fsp: error: %s; the outputs of the %d frames processed are written\n",
+                 r.end_message.c_str(), r.frames_processed);
+    throw CLI::RuntimeError(2);
+  }
 }
 
 }  // namespace
 
 void AddRunCommand(CLI::App& root) {
   auto args = std::make_shared<RunArgs>();
-  auto* sub = root.add_subcommand("run",
-                                  "Run FSP-SLAM on a recording: INPUT is a EuRoC-layout folder (a "
-                                  "rendered sequence is one). Writes\n"
-                                  "trajectory.tum, map.json, observations.csv and run.json to "
-                                  "--out DIR. The front end gt-corners reads\n"
-                                  "a rendered sequence's ground-truth corners "
-                                  "(observations_gt.csv) plus pixel noise from the config;\n"
-                                  "corners reads another detector's corners (--corners FILE, "
-                                  "the same columns, distorted pixels).");
+  auto* sub = root.add_subcommand(
+      "run",
+      "Run FSP-SLAM on a recording: INPUT is a EuRoC-layout folder (a rendered sequence is one), "
+      "a\n"
+      "video or a folder of images named by nanosecond timestamps (both with --imu and --calib).\n"
+      "Writes trajectory.tum, trajectory_online.tum, map.json, observations.csv and run.json to\n"
+      "--out DIR (each file written under a temporary name and renamed: never seen half-written).\n"
+      "The front end gt-corners reads a rendered sequence's ground-truth corners\n"
+      "(observations_gt.csv) plus pixel noise from the config; corners reads another detector's\n"
+      "corners (--corners FILE, the same columns, distorted pixels).\n"
+      "Live use: --follow processes the images of a folder as a camera driver writes them (the "
+      "IMU\n"
+      "csv may grow too: complete lines are read as they appear) until no new image arrived for\n"
+      "--idle-s or SIGINT/SIGTERM; --realtime replays a recording at its rate and drops the "
+      "frames\n"
+      "the pipeline cannot keep up with (counted in run.json). Both run the front end and the "
+      "back\n"
+      "end on their own threads (predictions one frame older than in the default synchronous "
+      "run).\n"
+      "Exit 0 on success (also when stopped by SIGINT/SIGTERM: the outputs are written), 2 on bad\n"
+      "input (one line), 3 when a followed folder or IMU csv disappears (the outputs hold the "
+      "frames\n"
+      "processed).");
   sub->add_option("INPUT", args->request.source.input,
-                  "dataset folder (EuRoC layout: DIR/mav0 or mav0 itself)");
+                  "EuRoC-layout folder (DIR/mav0 or mav0 itself), video, or image folder");
   sub->add_option("--out", args->request.out_dir, "output folder (created)");
   sub->add_option("--calib", args->request.source.calib,
                   "calibration: EuRoC cam0/sensor.yaml, Kalibr camchain or fsp calib.yaml "
@@ -127,9 +194,21 @@ void AddRunCommand(CLI::App& root) {
   sub->add_option("--mode", args->mode,
                   "window (online sliding window) or batch (full problem, the reference)")
       ->check(CLI::IsMember({"window", "batch"}));
-  sub->add_flag(
-      "--realtime", args->request.realtime,
-      "pace the input at its recorded rate and drop frames the pipeline cannot keep up with");
+  sub->add_flag("--realtime", args->request.realtime,
+                "pace the input at its recorded rate and drop frames the pipeline cannot keep up "
+                "with, as a live camera would (front end and back end on their own threads; "
+                "with --follow: drop instead of falling behind the folder)");
+  sub->add_flag("--follow", args->request.follow,
+                "INPUT is an image folder a camera driver is filling (<t_ns>.png ..., with --imu "
+                "and --calib; the IMU csv may grow too): process images as they appear, until none "
+                "arrived for --idle-s or SIGINT/SIGTERM; front end and back end on their own "
+                "threads. Exit 3 when the folder disappears (the outputs hold what was processed)");
+  sub->add_option("--idle-s", args->request.idle_s,
+                  "--follow: stop when no new image arrived for this long [s]")
+      ->default_str("5");
+  sub->add_flag("--show", args->request.show,
+                "show the annotated frame (as --video draws it) in a window while running, where "
+                "a display exists (otherwise a warning and no window)");
   sub->add_option("--video", args->request.video,
                   "also write the run as an annotated video (mp4): each frame with the objects "
                   "reported, their ids, classes and sizes, and the top view so far");

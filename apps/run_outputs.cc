@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 
+#include "fsp/common/atomic_file.h"
 #include "fsp/common/error.h"
 
 namespace fsp::apps {
@@ -99,6 +99,8 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
   j["duration_s"] = r.duration_s;
   j["frames_processed"] = r.frames_processed;
   j["frames_dropped"] = r.frames_dropped;
+  j["images_skipped"] = r.images_skipped;
+  j["imu_dropped"] = r.imu_dropped;
   j["imu_samples"] = r.imu_samples;
   j["observations"] = r.observations;
   j["objects_non_finite"] = r.objects_non_finite_ids;
@@ -107,6 +109,10 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
   j["mode"] = r.mode;
   j["landmarks"] = r.landmarks;
   j["realtime"] = r.realtime;
+  j["follow"] = r.follow;
+  j["threaded"] = r.threaded;
+  j["end"] = r.end;
+  j["end_message"] = r.end_message;
   j["seed"] = r.seed;
   j["pixel_sigma"] = r.pixel_sigma;
   j["config"] = r.config.empty() ? "defaults" : r.config;
@@ -161,10 +167,7 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
 }
 
 void WriteJson(const nlohmann::ordered_json& json, const std::string& path) {
-  std::ofstream out(path);
-  if (!out) throw InputError(path, 0, "cannot write");
-  out << json.dump(2) << "\n";
-  if (!out) throw InputError(path, 0, "write failed");
+  WriteFileAtomically(path, "json", [&](std::ostream& out) { out << json.dump(2) << "\n"; });
 }
 
 }  // namespace fsp::apps

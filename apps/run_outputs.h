@@ -29,6 +29,16 @@ struct RunReport {
   int frames = 0;            // frames read from the input
   int frames_processed = 0;  // frames given to the estimator
   int frames_dropped = 0;    // --realtime: frames the pipeline could not keep up with
+  int images_skipped = 0;    // --follow: images not read (undecodable, wrong size, late, duplicate)
+  int imu_dropped = 0;       // --follow: IMU samples that arrived after a later frame
+  bool follow = false;
+  bool threaded = false;  // front end and back end on their own threads (realtime, follow)
+  // How the input ended: "complete" (read to its end), "idle" (--follow: no new image for the
+  // idle time), "stopped" (SIGINT/SIGTERM), "folder-gone" (the followed folder or IMU csv
+  // disappeared), "error" (a malformed line of a followed IMU csv; end_message says more) or
+  // "refused" (the static initialisation was refused).
+  std::string end = "complete";
+  std::string end_message;
   int imu_samples = 0;
   int keyframes = 0;
   int objects = 0;  // objects in map.json

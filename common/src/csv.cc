@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <sstream>
 
 #include "fsp/common/error.h"
 
@@ -14,13 +15,20 @@ TableReader::TableReader(const std::string& path, std::string what)
   if (!std::filesystem::exists(path)) throw InputError(path, 0, what_ + " not found");
   if (std::filesystem::is_directory(path))
     throw InputError(path, 0, "is a directory, expected a " + what_);
-  in_.open(path);
-  if (!in_) throw InputError(path, 0, "cannot open " + what_);
+  in_ = std::make_unique<std::ifstream>(path);
+  if (!*in_) throw InputError(path, 0, "cannot open " + what_);
 }
+
+TableReader::TableReader(const std::string& path, std::string what, const std::string& text,
+                         int first_line)
+    : path_(path),
+      what_(std::move(what)),
+      in_(std::make_unique<std::istringstream>(text)),
+      line_(first_line) {}
 
 bool TableReader::NextRow(std::vector<std::string>* fields) {
   std::string text;
-  while (std::getline(in_, text)) {
+  while (std::getline(*in_, text)) {
     ++line_;
     if (!text.empty() && text.back() == '\r') text.pop_back();
     size_t start = text.find_first_not_of(" \t");

@@ -10,6 +10,7 @@
 #include <opencv2/core/mat.hpp>
 
 #include "fsp/common/csv.h"
+#include "fsp/common/types.h"
 
 namespace fsp::internal {
 
@@ -50,5 +51,9 @@ cv::Mat ReadGreyImage(const std::string& path);
 // Throws "FILE:LINE: duplicate timestamp" / "goes backwards" unless T > PREV (the row at
 // PREV_LINE).
 void CheckIncreasing(const TableReader& reader, int64_t t, int64_t prev, int prev_line);
+
+// The rows of an IMU csv ("t_ns,wx,wy,wz,ax,ay,az") appended to OUT, each checked as ReadImuCsv
+// does; the time must increase past OUT's last sample (read from line *PREV_LINE, updated).
+void ReadImuRows(TableReader& reader, std::vector<ImuSample>* out, int* prev_line);
 
 }  // namespace fsp::internal

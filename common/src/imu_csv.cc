@@ -23,13 +23,8 @@ void CheckIncreasing(const TableReader& reader, int64_t t, int64_t prev, int pre
   }
 }
 
-}  // namespace internal
-
-std::vector<ImuSample> ReadImuCsv(const std::string& path) {
-  TableReader reader(path, "IMU csv");
-  std::vector<ImuSample> out;
+void ReadImuRows(TableReader& reader, std::vector<ImuSample>* out, int* prev_line) {
   std::vector<std::string> f;
-  int prev_line = 0;
   static const char* const kNames[] = {"wx", "wy", "wz", "ax", "ay", "az"};
   while (reader.NextRow(&f)) {
     reader.ExpectColumns(f, 7, 7);
@@ -38,10 +33,19 @@ std::vector<ImuSample> ReadImuCsv(const std::string& path) {
     for (int i = 0; i < 3; ++i) s.gyro[i] = reader.Double(f, static_cast<size_t>(1 + i), kNames[i]);
     for (int i = 0; i < 3; ++i)
       s.acc[i] = reader.Double(f, static_cast<size_t>(4 + i), kNames[3 + i]);
-    if (!out.empty()) internal::CheckIncreasing(reader, s.t_ns, out.back().t_ns, prev_line);
-    prev_line = reader.line();
-    out.push_back(s);
+    if (!out->empty()) CheckIncreasing(reader, s.t_ns, out->back().t_ns, *prev_line);
+    *prev_line = reader.line();
+    out->push_back(s);
   }
+}
+
+}  // namespace internal
+
+std::vector<ImuSample> ReadImuCsv(const std::string& path) {
+  TableReader reader(path, "IMU csv");
+  std::vector<ImuSample> out;
+  int prev_line = 0;
+  internal::ReadImuRows(reader, &out, &prev_line);
   if (out.empty())
     throw InputError(path, 0, "no IMU samples (expected rows t_ns,wx,wy,wz,ax,ay,az)");
   return out;

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <iomanip>
 
+#include "fsp/common/atomic_file.h"
 #include "fsp/common/csv.h"
 #include "fsp/common/error.h"
 
@@ -40,20 +41,20 @@ std::vector<CornerRow> ReadCornerRows(const std::string& path) {
 }
 
 void WriteCornerRows(const std::vector<CornerRow>& rows, const std::string& path, bool with_flag) {
-  std::ofstream out(path);
-  if (!out) throw InputError(path, 0, "cannot write observations csv");
-  out << "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4" << (with_flag ? ",fully_visible" : "") << "\n";
-  char buf[64];
-  for (const CornerRow& r : rows) {
-    out << r.t_ns << ',' << r.object_id;
-    for (const Vec2& c : r.corners) {
-      std::snprintf(buf, sizeof(buf), ",%.4f,%.4f", c.x(), c.y());
-      out << buf;
+  WriteFileAtomically(path, "observations csv", [&](std::ostream& out) {
+    out << "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4" << (with_flag ? ",fully_visible" : "")
+        << "\n";
+    char buf[64];
+    for (const CornerRow& r : rows) {
+      out << r.t_ns << ',' << r.object_id;
+      for (const Vec2& c : r.corners) {
+        std::snprintf(buf, sizeof(buf), ",%.4f,%.4f", c.x(), c.y());
+        out << buf;
+      }
+      if (with_flag) out << ',' << (r.fully_visible ? 1 : 0);
+      out << '\n';
     }
-    if (with_flag) out << ',' << (r.fully_visible ? 1 : 0);
-    out << '\n';
-  }
-  if (!out) throw InputError(path, 0, "write failed");
+  });
 }
 
 }  // namespace fsp

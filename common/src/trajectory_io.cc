@@ -7,6 +7,7 @@
 #include <fstream>
 #include <limits>
 
+#include "fsp/common/atomic_file.h"
 #include "fsp/common/csv.h"
 #include "fsp/common/error.h"
 
@@ -138,15 +139,16 @@ std::vector<StampedPose> ReadTum(const std::string& path, std::vector<double>* t
 }
 
 void WriteTum(const std::vector<StampedPose>& poses, const std::string& path) {
-  std::ofstream out = OpenForWriting(path, "TUM trajectory");
-  out << "# t_s tx ty tz qx qy qz qw\n";
-  for (const StampedPose& pose : poses) {
-    const Vec3& p = pose.T_W_B.translation();
-    const Quat& q = pose.T_W_B.rotation();
-    out << SecondsText(pose.t_ns) << ' ' << Num(p.x()) << ' ' << Num(p.y()) << ' ' << Num(p.z())
-        << ' ' << Num(q.x()) << ' ' << Num(q.y()) << ' ' << Num(q.z()) << ' ' << Num(q.w()) << '\n';
-  }
-  if (!out) throw InputError(path, 0, "error while writing TUM trajectory");
+  WriteFileAtomically(path, "TUM trajectory", [&](std::ostream& out) {
+    out << "# t_s tx ty tz qx qy qz qw\n";
+    for (const StampedPose& pose : poses) {
+      const Vec3& p = pose.T_W_B.translation();
+      const Quat& q = pose.T_W_B.rotation();
+      out << SecondsText(pose.t_ns) << ' ' << Num(p.x()) << ' ' << Num(p.y()) << ' ' << Num(p.z())
+          << ' ' << Num(q.x()) << ' ' << Num(q.y()) << ' ' << Num(q.z()) << ' ' << Num(q.w())
+          << '\n';
+    }
+  });
 }
 
 std::vector<StateSample> ReadEurocGroundTruth(const std::string& path, TimeOrder order) {

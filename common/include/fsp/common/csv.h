@@ -4,6 +4,8 @@
 
 #include <cstdint>
 #include <fstream>
+#include <istream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -14,6 +16,9 @@ class TableReader {
   // Opens PATH; throws InputError when it does not exist or cannot be read. `what` names the kind
   // of file in messages ("IMU csv", "TUM trajectory").
   explicit TableReader(const std::string& path, std::string what = "file");
+  // Reads TEXT instead of the file: lines of PATH that follow line FIRST_LINE (for a file read
+  // piece by piece as it grows); messages name PATH and the line in the file.
+  TableReader(const std::string& path, std::string what, const std::string& text, int first_line);
 
   // Next data row split on ',' and/or whitespace; skips blank lines and lines starting with '#'.
   // Returns false at the end of the file.
@@ -34,7 +39,7 @@ class TableReader {
  private:
   std::string path_;
   std::string what_;
-  std::ifstream in_;
+  std::unique_ptr<std::istream> in_;
   int line_ = 0;
   int rows_ = 0;
 };
