@@ -54,6 +54,42 @@ AnnotatedVideo::~AnnotatedVideo() {
   }
 }
 
+void AnnotatedVideo::AddSummary(const std::vector<backend::MapObject>& map) {
+  if (last_.empty()) return;
+  cv::Mat out = last_ * 0.35;
+  const double scale = std::max(1.0, out.cols / 640.0);
+  const double font = 0.42 * scale;
+  const int thick = std::max(1, static_cast<int>(std::lround(scale)));
+  const int line = static_cast<int>(std::lround(16 * scale));
+  int y = line;
+  const auto text = [&](const std::string& s, const cv::Scalar& colour) {
+    cv::putText(out, s, cv::Point(8, y), cv::FONT_HERSHEY_SIMPLEX, font, colour, thick,
+                cv::LINE_AA);
+    y += line;
+  };
+  text("the map after the final solve (width x height, +- 1 sigma):", cv::Scalar(255, 255, 255));
+  const int rows = std::max(1, (out.rows - 2 * line) / line);
+  for (size_t i = 0; i < map.size(); ++i) {
+    const backend::MapObject& o = map[i];
+    if (static_cast<int>(i) + 1 >= rows && i + 1 < map.size()) {
+      text("... " + std::to_string(map.size() - i) + " more in map.json",
+           cv::Scalar(255, 255, 255));
+      break;
+    }
+    char row[128];
+    if (o.width_sigma > 0.0 && o.height_sigma > 0.0) {
+      std::snprintf(row, sizeof(row), "%d %s  %.3f +- %.3f x %.3f +- %.3f m", o.id,
+                    ToString(o.object_class), o.width, o.width_sigma, o.height, o.height_sigma);
+    } else {
+      std::snprintf(row, sizeof(row), "%d %s  %.3f x %.3f m", o.id, ToString(o.object_class),
+                    o.width, o.height);
+    }
+    text(row, frontend::ClassColour(o.object_class));
+  }
+  for (int k = 0; k < kSummaryFrames && impl_->writer.isOpened(); ++k) impl_->writer.write(out);
+  last_ = out;
+}
+
 void AnnotatedVideo::Close() {
   if (!impl_->writer.isOpened()) return;
   impl_->writer.release();

@@ -37,6 +37,12 @@ class AnnotatedVideo {
   void Add(const cv::Mat& image, const std::vector<ObjectObservation>& observations,
            const std::vector<backend::MapObject>& map, const std::optional<Rigid3>& T_W_B);
 
+  // The map after the final solve, once its σ are known: kSummaryFrames frames (2 s at 20 Hz)
+  // appended after the last one, the last frame dimmed under a table of the objects (id, class,
+  // width +- σ x height +- σ). Nothing when no frame was added.
+  static constexpr int kSummaryFrames = 40;
+  void AddSummary(const std::vector<backend::MapObject>& map);
+
   // The last frame drawn (BGR), e.g. for a picture in the docs; empty before the first.
   const cv::Mat& last() const { return last_; }
 

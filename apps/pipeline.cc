@@ -346,12 +346,16 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
     }
   }
   report.objects = static_cast<int>(map.size());
+  report.map = map;
   WriteTum(sync ? sync->Trajectory() : threaded->Trajectory(), (out / "trajectory.tum").string());
   WriteTum(sync ? sync->CausalTrajectory() : threaded->CausalTrajectory(),
            (out / "trajectory_online.tum").string());
   WriteJson(MapToJson(map), (out / "map.json").string());
   WriteCornerRows(produced, (out / "observations.csv").string(), /*with_flag=*/false);
-  if (video && !request.video.empty()) video->Close();
+  if (video && !request.video.empty()) {
+    video->AddSummary(map);
+    video->Close();
+  }
   WriteJson(RunReportToJson(report), (out / "run.json").string());
   return report;
 }

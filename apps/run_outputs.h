@@ -43,7 +43,8 @@ struct RunReport {
   int keyframes = 0;
   int objects = 0;  // objects in map.json
   std::vector<int>
-      objects_non_finite_ids;    // objects the estimator returned with non-finite values (left out)
+      objects_non_finite_ids;  // objects the estimator returned with non-finite values (left out)
+  std::vector<backend::MapObject> map;  // what map.json holds
   int observations = 0;          // object observations produced by the front end (processed frames)
   double duration_s = 0.0;       // sequence span, first to last frame [s]
   double wall_s = 0.0;           // wall time of reading + front end + back end + finish [s]

@@ -280,6 +280,11 @@ struct FolderFollower::Impl {
         frame.image = internal::ReadGreyImage(q.path);
       } catch (const InputError& e) {
         std::error_code ec;
+        if (!fs::is_directory(o.folder, ec)) {  // not a bad image: the folder went away
+          end = FollowEnd::kFolderGone;
+          message = o.folder + ": the followed folder disappeared";
+          break;
+        }
         const uintmax_t size = fs::file_size(q.path, ec);
         if (!ec && size != q.size && !ending) {
           // Still being written: wait for it.

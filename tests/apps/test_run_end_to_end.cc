@@ -230,8 +230,8 @@ TEST(RunEndToEnd, NoiseFreeCornersConverge) {
 }
 
 // --video: one annotated frame per input frame, of the camera's size (here from ground-truth
-// corners: no image is decoded, the objects are drawn on a grey canvas); an unwritable path is one
-// clear error.
+// corners: no image is decoded, the objects are drawn on a grey canvas), then the map with its σ
+// (AnnotatedVideo::kSummaryFrames); an unwritable path is one clear error.
 TEST(RunEndToEnd, AnnotatedVideoHasEveryFrame) {
   const fs::path dir = test::ScratchDir();
   const RunResult r = RunAndEvaluate("--video " + (dir / "annotated.mp4").string(), dir / "run");
@@ -246,7 +246,7 @@ TEST(RunEndToEnd, AnnotatedVideoHasEveryFrame) {
     EXPECT_EQ(frame.rows, 240);
     last = frame.clone();
   }
-  EXPECT_EQ(frames, 200);
+  EXPECT_EQ(frames, 200 + 40);  // every frame, then 2 s of the map with its σ
   // The last frame is not the plain canvas: outlines, labels and the top view are drawn on it.
   ASSERT_FALSE(last.empty());
   cv::Mat grey;
