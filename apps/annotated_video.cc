@@ -56,26 +56,10 @@ AnnotatedVideo::~AnnotatedVideo() {
 
 void AnnotatedVideo::AddSummary(const std::vector<backend::MapObject>& map) {
   if (last_.empty()) return;
-  cv::Mat out = last_ * 0.35;
-  const double scale = std::max(1.0, out.cols / 640.0);
-  const double font = 0.42 * scale;
-  const int thick = std::max(1, static_cast<int>(std::lround(scale)));
-  const int line = static_cast<int>(std::lround(16 * scale));
-  int y = line;
-  const auto text = [&](const std::string& s, const cv::Scalar& colour) {
-    cv::putText(out, s, cv::Point(8, y), cv::FONT_HERSHEY_SIMPLEX, font, colour, thick,
-                cv::LINE_AA);
-    y += line;
-  };
-  text("the map after the final solve (width x height, +- 1 sigma):", cv::Scalar(255, 255, 255));
-  const int rows = std::max(1, (out.rows - 2 * line) / line);
-  for (size_t i = 0; i < map.size(); ++i) {
-    const backend::MapObject& o = map[i];
-    if (static_cast<int>(i) + 1 >= rows && i + 1 < map.size()) {
-      text("... " + std::to_string(map.size() - i) + " more in map.json",
-           cv::Scalar(255, 255, 255));
-      break;
-    }
+  std::vector<std::pair<std::string, cv::Scalar>> rows;
+  rows.emplace_back("the map after the final solve (width x height, +- 1 sigma):",
+                    cv::Scalar(255, 255, 255));
+  for (const backend::MapObject& o : map) {
     char row[128];
     if (o.width_sigma > 0.0 && o.height_sigma > 0.0) {
       std::snprintf(row, sizeof(row), "%d %s  %.3f +- %.3f x %.3f +- %.3f m", o.id,
@@ -84,7 +68,29 @@ void AnnotatedVideo::AddSummary(const std::vector<backend::MapObject>& map) {
       std::snprintf(row, sizeof(row), "%d %s  %.3f x %.3f m", o.id, ToString(o.object_class),
                     o.width, o.height);
     }
-    text(row, frontend::ClassColour(o.object_class));
+    rows.emplace_back(row, frontend::ClassColour(o.object_class));
+  }
+  cv::Mat out = last_ * 0.35;
+  // The font as large as fits: 0.42 per 640 px of width, smaller when a row is wider than the
+  // frame.
+  double font = 0.42 * out.cols / 640.0;
+  int widest = 0, baseline = 0;
+  for (const auto& [text, colour] : rows)
+    widest =
+        std::max(widest, cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, font, 1, &baseline).width);
+  if (widest > out.cols - 16) font *= static_cast<double>(out.cols - 16) / widest;
+  const int line = std::max(8, static_cast<int>(std::lround(40 * font)));
+  const size_t fit = static_cast<size_t>(std::max(2, out.rows / line - 1));
+  if (rows.size() > fit) {
+    const size_t more = rows.size() - (fit - 1);
+    rows.resize(fit - 1);
+    rows.emplace_back("... " + std::to_string(more) + " more in map.json",
+                      cv::Scalar(255, 255, 255));
+  }
+  int y = line;
+  for (const auto& [text, colour] : rows) {
+    cv::putText(out, text, cv::Point(8, y), cv::FONT_HERSHEY_SIMPLEX, font, colour, 1, cv::LINE_AA);
+    y += line;
   }
   for (int k = 0; k < kSummaryFrames && impl_->writer.isOpened(); ++k) impl_->writer.write(out);
   last_ = out;
