@@ -11,6 +11,8 @@
 #include <optional>
 #include <thread>
 
+#include <opencv2/core.hpp>
+
 #include "fsp/common/error.h"
 #include "fsp/common/folder_follower.h"
 #include "fsp/common/observations_io.h"
@@ -259,6 +261,16 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
     Frame& frame = std::get<Frame>(*m);
     if (pacer && !SleepUntil(pacer->Due(frame.t_ns), request.stop)) continue;
     ++frames_seen;
+    if (frames_seen == 1 && from_images && request.warn && !frame.image.empty()) {
+      // A sequence rendered with --no-images lists one grey placeholder for every frame: nothing to
+      // detect, and no error would say why the map stays empty.
+      double lo = 0.0, hi = 0.0;
+      cv::minMaxLoc(frame.image, &lo, &hi);
+      if (lo == hi)
+        request.warn(request.source.input +
+                     ": the first image is one uniform grey level (a sequence rendered with "
+                     "--no-images has no pixels: use --frontend gt-corners)");
+    }
     std::vector<ObjectObservation> observations;
     double file_ms = 0.0;
     if (corner_file) {

@@ -105,6 +105,16 @@ TEST(Faults, NoFaultNoCounter) {
   EXPECT_LT(r.ate, 0.045);  // measured 2.8 cm (11.9 cm before the global step)
 }
 
+// A sequence rendered without images (one grey placeholder per frame) run from pixels: the run
+// completes, and one warning says why nothing is mapped instead of an empty map without a word.
+TEST(Faults, NoPixelsFromPixelsIsWarned) {
+  const test::CommandResult r =
+      test::RunFsp("run " + test::RoomLoopSequence().string() + " --frontend rect --out " +
+                   (test::ScratchDir() / "run").string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("the first image is one uniform grey level"), std::string::npos) << r.err;
+}
+
 // 3 s without IMU samples (as a driver that stalls): the constant-velocity motion prior bridges
 // it; before, the preintegration across the hole aborted the run (an LLT check).
 TEST(Faults, ImuGapOfThreeSeconds) {
