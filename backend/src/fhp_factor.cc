@@ -26,8 +26,8 @@ using Mat23R = Eigen::Matrix<double, 2, 3, Eigen::RowMajor>;
 }  // namespace
 
 FhpFactor::FhpFactor(const Vec2& corner_px, const Mat3& K, const Rigid3& T_B_C,
-                     const FspFactorOptions& options, const std::optional<Rigid3>& T_Bc_C)
-    : obs_(corner_px), K_(K), T_B_C_(T_B_C), T_Bc_C_(T_Bc_C.value_or(T_B_C)), options_(options) {
+                     const FspFactorOptions& options)
+    : obs_(corner_px), K_(K), T_B_C_(T_B_C), options_(options) {
   std::string why;
   FSP_CHECK(options_.Check(&why));
   FSP_CHECK(K_.row(2).isApprox(Eigen::RowVector3d(0.0, 0.0, 1.0)));
@@ -43,8 +43,7 @@ bool FhpFactor::Evaluate(double const* const* parameters, double* residuals,
   const double omega = std::exp(c[2]);
   const bool want = jacobians != nullptr;
   AnchoredPointJacobians Jh;
-  const Vec3 h =
-      AnchoredHomogeneousPoint(T_W_Bc, T_W_Ba, T_Bc_C_, T_B_C_, a, omega, want ? &Jh : nullptr);
+  const Vec3 h = AnchoredHomogeneousPoint(T_W_Bc, T_W_Ba, T_B_C_, a, omega, want ? &Jh : nullptr);
   if (!(h.z() > options_.min_h_z)) return false;
   Mat23 D;
   const Vec2 z = ProjectHomogeneous(K_, h, want ? &D : nullptr);

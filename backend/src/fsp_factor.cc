@@ -47,19 +47,15 @@ std::unique_ptr<ceres::LossFunction> MakeRobustLoss(const RobustLossOptions& opt
 Vec3 AnchoredHomogeneousPoint(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor,
                               const Rigid3& T_B_C, const Vec3& a, double omega,
                               AnchoredPointJacobians* J) {
-  return AnchoredHomogeneousPoint(T_W_Bcam, T_W_Banchor, T_B_C, T_B_C, a, omega, J);
-}
-
-Vec3 AnchoredHomogeneousPoint(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor,
-                              const Rigid3& T_Bc_C, const Rigid3& T_Ba_C, const Vec3& a,
-                              double omega, AnchoredPointJacobians* J) {
+  const Mat3 R_B_C = T_B_C.R();
+  const Vec3& p_B_C = T_B_C.translation();
   const Mat3 R_W_Bc = T_W_Bcam.R();
   const Mat3 R_W_Ba = T_W_Banchor.R();
-  // Lever arms of the cameras in W: b = R_W_B p_B_C.
-  const Vec3 b_cam = R_W_Bc * T_Bc_C.translation();
-  const Vec3 b_anc = R_W_Ba * T_Ba_C.translation();
-  const Mat3 R_C_W = (R_W_Bc * T_Bc_C.R()).transpose();
-  const Mat3 R_W_F = R_W_Ba * T_Ba_C.R();
+  // Lever arms of the camera in W: b = R_W_B p_B_C.
+  const Vec3 b_cam = R_W_Bc * p_B_C;
+  const Vec3 b_anc = R_W_Ba * p_B_C;
+  const Mat3 R_C_W = (R_W_Bc * R_B_C).transpose();
+  const Mat3 R_W_F = R_W_Ba * R_B_C;
   const Vec3 p_W_C = T_W_Bcam.translation() + b_cam;
   const Vec3 p_W_F = T_W_Banchor.translation() + b_anc;
   const Vec3 d_FC = p_W_F - p_W_C;
@@ -136,8 +132,8 @@ void CornerDirJacobians(const FspLandmark& l, const Mat3& R_F_O, int j, Mat3* d_
 }  // namespace
 
 FspFactor::FspFactor(const Corners& corners_px, const Mat3& K, const Rigid3& T_B_C,
-                     const FspFactorOptions& options, const std::optional<Rigid3>& T_Bc_C)
-    : obs_(corners_px), K_(K), T_B_C_(T_B_C), T_Bc_C_(T_Bc_C.value_or(T_B_C)), options_(options) {
+                     const FspFactorOptions& options)
+    : obs_(corners_px), K_(K), T_B_C_(T_B_C), options_(options) {
   std::string why;
   FSP_CHECK(options_.Check(&why));
   FSP_CHECK(K_.row(2).isApprox(Eigen::RowVector3d(0.0, 0.0, 1.0)));
@@ -164,8 +160,7 @@ bool FspFactor::Evaluate(double const* const* parameters, double* residuals,
   for (int j = 0; j < 4; ++j) {
     const Vec3 a = l.CornerDirF(j);
     AnchoredPointJacobians Jh;
-    const Vec3 h =
-        AnchoredHomogeneousPoint(T_W_Bc, T_W_Ba, T_Bc_C_, T_B_C_, a, omega, want ? &Jh : nullptr);
+    const Vec3 h = AnchoredHomogeneousPoint(T_W_Bc, T_W_Ba, T_B_C_, a, omega, want ? &Jh : nullptr);
     if (!(h.z() > options_.min_h_z)) return false;  // cheirality (see header)
     Mat23 D;
     const Vec2 z = ProjectHomogeneous(K_, h, want ? &D : nullptr);

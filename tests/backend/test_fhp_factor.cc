@@ -83,35 +83,6 @@ TEST(FhpFactor, JacobiansMatchNumericAndGradientChecker) {
   }
 }
 
-// A frame carried by a keyframe (as FspFactor's test): zero residual at the truth, Jacobians.
-TEST(FhpFactor, CarriedCameraZeroResidualAndJacobians) {
-  std::mt19937 rng(29);
-  std::normal_distribution<double> n(0.0, 1.0);
-  const Mat3 K = test::TestK();
-  PoseManifold pose_manifold;
-  for (int trial = 0; trial < 20; ++trial) {
-    FhpScene s = MakeFhpScene(rng);
-    const Rigid3 T_Bk_C =
-        Rigid3(ExpQuat(0.05 * Vec3(n(rng), n(rng), n(rng))), 0.05 * Vec3(n(rng), n(rng), n(rng))) *
-        s.T_B_C;
-    const Rigid3 T_W_C = PoseFromBlock(s.pose_cam) * T_Bk_C;
-    const Corners truth = test::ProjectCorners(K, T_W_C, s.object);
-    const int j = trial % 4;
-    const double* cparams[3] = {s.pose_cam, s.pose_anchor, s.landmark.corner[j]};
-    double r[2];
-    FhpFactor exact(truth[j], K, s.T_B_C, FspFactorOptions(), T_Bk_C);
-    ASSERT_TRUE(exact.Evaluate(cparams, r, nullptr));
-    EXPECT_LT(Vec2(r[0], r[1]).norm(), 1e-8) << "trial " << trial;
-    FhpFactor factor(test::AddNoise(rng, truth, 3.0)[j], K, s.T_B_C, FspFactorOptions(), T_Bk_C);
-    std::vector<double*> params = {s.pose_cam, s.pose_anchor, s.landmark.corner[j]};
-    std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, &pose_manifold, nullptr};
-    // GradientChecker at 1e-5 (jacobian_check.h's default): near-zero entries (5.7e-4 against
-    // entries of 10-1000, 7e-10 apart) reach 1.2e-6 of its relative measure.
-    EXPECT_TRUE(test::ExpectFactorJacobiansOk(factor, params, manifolds, 1e-5, 1e-5))
-        << "trial " << trial;
-  }
-}
-
 TEST(FhpAnchorFactor, JacobiansMatchNumericAndGradientChecker) {
   std::mt19937 rng(47);
   const Mat3 K = test::TestK();

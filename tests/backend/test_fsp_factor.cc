@@ -133,37 +133,6 @@ TEST(FspFactor, JacobiansMatchNumericAndGradientChecker) {
   }
 }
 
-// A frame carried by a keyframe (batch with keyframes: the frame's camera at T_Bkf_Bf T_B_C on the
-// keyframe's pose block): zero residual at the truth, Jacobians against central differences.
-TEST(FspFactor, CarriedCameraZeroResidualAndJacobians) {
-  std::mt19937 rng(23);
-  std::normal_distribution<double> n(0.0, 1.0);
-  const Mat3 K = test::TestK();
-  PoseManifold pose_manifold;
-  ceres::EigenQuaternionManifold quat_manifold;
-  for (int trial = 0; trial < 20; ++trial) {
-    Scene s = MakeScene(rng);
-    const Rigid3 T_Bk_Bf(ExpQuat(0.05 * Vec3(n(rng), n(rng), n(rng))),
-                         0.05 * Vec3(n(rng), n(rng), n(rng)));
-    const Rigid3 T_Bk_C = T_Bk_Bf * s.T_B_C;
-    const Rigid3 T_W_C = PoseFromBlock(s.pose_cam) * T_Bk_C;
-    const Corners truth = test::ProjectCorners(K, T_W_C, s.object);
-    const double* cparams[4] = {s.pose_cam, s.pose_anchor, s.landmark.q_F_O, s.landmark.x};
-    double r[8];
-    FspFactor exact(truth, K, s.T_B_C, FspFactorOptions(), T_Bk_C);
-    ASSERT_TRUE(exact.Evaluate(cparams, r, nullptr));
-    EXPECT_LT((Eigen::Map<Eigen::Matrix<double, 8, 1>>(r).norm()), 1e-8) << "trial " << trial;
-    FspFactor factor(test::AddNoise(rng, truth, 3.0), K, s.T_B_C, FspFactorOptions(), T_Bk_C);
-    std::vector<double*> params = {s.pose_cam, s.pose_anchor, s.landmark.q_F_O, s.landmark.x};
-    std::vector<const ceres::Manifold*> manifolds = {&pose_manifold, &pose_manifold, &quat_manifold,
-                                                     nullptr};
-    // GradientChecker at 1e-5 (jacobian_check.h's default): near-zero entries (5.7e-4 against
-    // entries of 10-1000, 7e-10 apart) reach 1.2e-6 of its relative measure.
-    EXPECT_TRUE(test::ExpectFactorJacobiansOk(factor, params, manifolds, 1e-5, 1e-5))
-        << "trial " << trial;
-  }
-}
-
 TEST(FspAnchorFactor, JacobiansMatchNumericAndGradientChecker) {
   std::mt19937 rng(19);
   const Mat3 K = test::TestK();

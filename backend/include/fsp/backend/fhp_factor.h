@@ -10,8 +10,6 @@
 // before adding).
 #pragma once
 
-#include <optional>
-
 #include <ceres/sized_cost_function.h>
 
 #include "fsp/backend/fsp_factor.h"
@@ -25,9 +23,8 @@ CornerPrediction PredictFhpCorners(const Mat3& K, const Rigid3& T_W_C, const Rig
 // Blocks (camera body pose[7], anchor body pose[7], fhp corner[3]); ambient Jacobians.
 class FhpFactor final : public ceres::SizedCostFunction<2, 7, 7, 3> {
  public:
-  // T_Bc_C: the observing camera's mount when it is not T_B_C (as FspFactor's).
   FhpFactor(const Vec2& corner_px, const Mat3& K, const Rigid3& T_B_C,
-            const FspFactorOptions& options, const std::optional<Rigid3>& T_Bc_C = std::nullopt);
+            const FspFactorOptions& options);
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
@@ -35,7 +32,6 @@ class FhpFactor final : public ceres::SizedCostFunction<2, 7, 7, 3> {
   Vec2 obs_;
   Mat3 K_;
   Rigid3 T_B_C_;
-  Rigid3 T_Bc_C_;
   FspFactorOptions options_;
 };
 

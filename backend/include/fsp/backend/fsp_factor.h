@@ -22,7 +22,6 @@
 #pragma once
 
 #include <memory>
-#include <optional>
 #include <string>
 
 #include <ceres/loss_function.h>
@@ -76,11 +75,6 @@ struct AnchoredPointJacobians {
 Vec3 AnchoredHomogeneousPoint(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor,
                               const Rigid3& T_B_C, const Vec3& a, double omega,
                               AnchoredPointJacobians* J = nullptr);
-// The same with the observing camera mounted at T_Bc_C on its body and the anchor camera at T_Ba_C
-// (a frame carried by the keyframe before it: T_Bc_C = T_Bkf_Bframe T_B_C).
-Vec3 AnchoredHomogeneousPoint(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor,
-                              const Rigid3& T_Bc_C, const Rigid3& T_Ba_C, const Vec3& a,
-                              double omega, AnchoredPointJacobians* J = nullptr);
 
 // z = π(K h) with optional Jacobian dz/dh = [[1/h_z, 0, −p_x/h_z²], [0, 1/h_z, −p_y/h_z²]] K, p = K
 // h. K must have last row (0, 0, 1) (zero skew allowed or not).
@@ -100,10 +94,8 @@ CornerPrediction PredictFspCorners(const Mat3& K, const Rigid3& T_W_C, const Rig
 // compose with any manifold on those blocks.
 class FspFactor final : public ceres::SizedCostFunction<8, 7, 7, 4, 5> {
  public:
-  // T_Bc_C: the observing camera's mount on the camera pose block when it is not T_B_C (a frame
-  // carried by the keyframe before it, T_Bkf_Bframe T_B_C); the anchor camera is always at T_B_C.
   FspFactor(const Corners& corners_px, const Mat3& K, const Rigid3& T_B_C,
-            const FspFactorOptions& options, const std::optional<Rigid3>& T_Bc_C = std::nullopt);
+            const FspFactorOptions& options);
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
@@ -111,7 +103,6 @@ class FspFactor final : public ceres::SizedCostFunction<8, 7, 7, 4, 5> {
   Corners obs_;
   Mat3 K_;
   Rigid3 T_B_C_;
-  Rigid3 T_Bc_C_;
   FspFactorOptions options_;
 };
 
