@@ -1,5 +1,7 @@
 #include "annotated_video.h"
 
+#include "run_outputs.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -59,17 +61,8 @@ void AnnotatedVideo::AddSummary(const std::vector<backend::MapObject>& map) {
   std::vector<std::pair<std::string, cv::Scalar>> rows;
   rows.emplace_back("the map after the final solve (width x height, +- 1 sigma):",
                     cv::Scalar(255, 255, 255));
-  for (const backend::MapObject& o : map) {
-    char row[128];
-    if (o.width_sigma > 0.0 && o.height_sigma > 0.0) {
-      std::snprintf(row, sizeof(row), "%d %s  %.3f +- %.3f x %.3f +- %.3f m", o.id,
-                    ToString(o.object_class), o.width, o.width_sigma, o.height, o.height_sigma);
-    } else {
-      std::snprintf(row, sizeof(row), "%d %s  %.3f x %.3f m", o.id, ToString(o.object_class),
-                    o.width, o.height);
-    }
-    rows.emplace_back(row, frontend::ClassColour(o.object_class));
-  }
+  for (const backend::MapObject& o : map)
+    rows.emplace_back(MapObjectLine(o), frontend::ClassColour(o.object_class));
   cv::Mat out = last_ * 0.35;
   // The font as large as fits: 0.42 per 640 px of width, smaller when a row is wider than the
   // frame.

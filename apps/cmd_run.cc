@@ -96,14 +96,8 @@ void Run(const RunArgs& args) {
   // covariance).
   constexpr size_t kListed = 40;
   if (!r.map.empty()) std::printf("  map (width x height, +- 1 sigma):\n");
-  for (size_t i = 0; i < r.map.size() && i < kListed; ++i) {
-    const backend::MapObject& o = r.map[i];
-    std::printf("    %5d %-8s %6.3f", o.id, ToString(o.object_class), o.width);
-    if (o.width_sigma > 0.0) std::printf(" +- %.3f", o.width_sigma);
-    std::printf(" x %6.3f", o.height);
-    if (o.height_sigma > 0.0) std::printf(" +- %.3f", o.height_sigma);
-    std::printf(" m\n");
-  }
+  for (size_t i = 0; i < r.map.size() && i < kListed; ++i)
+    std::printf("    %s\n", MapObjectLine(r.map[i]).c_str());
   if (r.map.size() > kListed) std::printf("    ... %zu more in map.json\n", r.map.size() - kListed);
   if (!r.objects_non_finite_ids.empty()) {
     std::printf(

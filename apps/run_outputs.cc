@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "fsp/common/atomic_file.h"
 #include "fsp/common/error.h"
@@ -56,6 +57,18 @@ std::vector<double> BackendByTenth(const std::vector<double>& ms) {
   return out;
 }
 }  // namespace
+
+std::string MapObjectLine(const backend::MapObject& o) {
+  char line[160];
+  if (o.width_sigma > 0.0 && o.height_sigma > 0.0) {
+    std::snprintf(line, sizeof(line), "%d %s  %.3f +- %.3f x %.3f +- %.3f m", o.id,
+                  ToString(o.object_class), o.width, o.width_sigma, o.height, o.height_sigma);
+  } else {
+    std::snprintf(line, sizeof(line), "%d %s  %.3f x %.3f m", o.id, ToString(o.object_class),
+                  o.width, o.height);
+  }
+  return line;
+}
 
 nlohmann::ordered_json MapToJson(const std::vector<backend::MapObject>& objects) {
   nlohmann::ordered_json list = nlohmann::ordered_json::array();

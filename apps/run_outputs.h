@@ -24,6 +24,9 @@ struct StageStats {
 };
 StageStats ComputeStageStats(std::vector<double> ms);
 
+// One mapped object for a person: "ID CLASS  W +- σw x H +- σh m" (without +- when σ is unknown).
+std::string MapObjectLine(const backend::MapObject& o);
+
 // What a run measured, for run.json and the summary line.
 struct RunReport {
   int frames = 0;            // frames read from the input

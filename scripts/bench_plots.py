@@ -171,13 +171,18 @@ def rpe(name, runs, path):
     plt.close(fig)
 
 
-def corners(name, runs, path):
+def objects_axis(runs):
+    """The configurations in plotting order, their styles, and the object ids on the x axis with
+    their positions, for the per-object plots."""
     configs = paired(list(runs))
-    order = style_order(configs)
     ids = sorted({o["id"] for c in configs for o in runs[c][1].get("per_object", [])})
+    return configs, style_order(configs), ids, {i: k for k, i in enumerate(ids)}
+
+
+def corners(name, runs, path):
+    configs, order, ids, index = objects_axis(runs)
     if not ids:
         return False
-    index = {i: k for k, i in enumerate(ids)}
     fig, ax = plt.subplots(figsize=(max(8, 0.5 * len(ids) + 3), 4.5))
     width = 0.8 / max(1, len(configs))
     for n, config in enumerate(configs):
@@ -206,12 +211,9 @@ def corners(name, runs, path):
 
 
 def sizes(name, runs, path):
-    configs = paired(list(runs))
-    order = style_order(configs)
-    ids = sorted({o["id"] for c in configs for o in runs[c][1].get("per_object", [])})
+    configs, order, ids, index = objects_axis(runs)
     if not ids:
         return False
-    index = {i: k for k, i in enumerate(ids)}
     fig, axes = plt.subplots(2, 1, figsize=(max(8, 0.5 * len(ids) + 3), 6.5), sharex=True)
     width = 0.8 / max(1, len(configs))
     for n, config in enumerate(configs):

@@ -169,14 +169,7 @@ struct Estimator::Impl {
 
   // --- IMU -------------------------------------------------------------------------------------
   std::vector<ImuSample> ImuBetween(int64_t t0, int64_t t1) const {
-    // One sample before t0 and one after t1 so the preintegration can interpolate the boundaries.
-    auto lo = std::lower_bound(imu.begin(), imu.end(), t0,
-                               [](const ImuSample& s, int64_t t) { return s.t_ns < t; });
-    if (lo != imu.begin()) --lo;
-    auto hi = std::upper_bound(imu.begin(), imu.end(), t1,
-                               [](int64_t t, const ImuSample& s) { return t < s.t_ns; });
-    if (hi != imu.end()) ++hi;
-    return std::vector<ImuSample>(lo, hi);
+    return ImuSamplesFor(imu, t0, t1);
   }
 
   // The longest stretch without an IMU sample that the interval [t0, t1] needs: from the last

@@ -209,4 +209,15 @@ void ImuPreintegration::Predict(const Rigid3& T_W_Bi, const Vec3& v_i, const Vec
   if (v_j) *v_j = v_i + g * dt_ + q_i * d.dv;
 }
 
+std::vector<ImuSample> ImuSamplesFor(const std::vector<ImuSample>& samples, int64_t t0,
+                                     int64_t t1) {
+  auto lo = std::lower_bound(samples.begin(), samples.end(), t0,
+                             [](const ImuSample& s, int64_t t) { return s.t_ns < t; });
+  if (lo != samples.begin()) --lo;
+  auto hi = std::upper_bound(samples.begin(), samples.end(), t1,
+                             [](int64_t t, const ImuSample& s) { return t < s.t_ns; });
+  if (hi != samples.end()) ++hi;
+  return std::vector<ImuSample>(lo, hi);
+}
+
 }  // namespace fsp::backend

@@ -36,16 +36,6 @@ struct View {
   double area_px = 0.0;
 };
 
-std::vector<ImuSample> ImuBetween(const std::vector<ImuSample>& imu, int64_t t0, int64_t t1) {
-  auto lo = std::lower_bound(imu.begin(), imu.end(), t0,
-                             [](const ImuSample& s, int64_t t) { return s.t_ns < t; });
-  if (lo != imu.begin()) --lo;
-  auto hi = std::upper_bound(imu.begin(), imu.end(), t1,
-                             [](int64_t t, const ImuSample& s) { return t < s.t_ns; });
-  if (hi != imu.end()) ++hi;
-  return std::vector<ImuSample>(lo, hi);
-}
-
 double QuadArea(const Corners& c) {
   double a = 0.0;
   for (int j = 0; j < 4; ++j) {
@@ -159,7 +149,7 @@ MotionInitSummary InitializeInMotion(const std::vector<BufferedFrame>& frames,
   }
   // Rotations against the gyroscope (bias 0 over the short window), from the largest view.
   const auto integrate = [&](int64_t t0, int64_t t1, const Vec3& bg) {
-    return std::make_unique<ImuPreintegration>(preint, ImuBetween(imu, t0, t1), t0, t1, bg,
+    return std::make_unique<ImuPreintegration>(preint, ImuSamplesFor(imu, t0, t1), t0, t1, bg,
                                                Vec3::Zero());
   };
   const auto largest = [&views] {

@@ -55,6 +55,10 @@ struct PreintegratedDelta {
   Vec3 dp = Vec3::Zero();
 };
 
+// The samples a preintegration over [t0, t1] needs from time-ordered SAMPLES: those inside plus
+// one before t0 and one after t1, so that it can interpolate the boundaries.
+std::vector<ImuSample> ImuSamplesFor(const std::vector<ImuSample>& samples, int64_t t0, int64_t t1);
+
 class ImuPreintegration {
  public:
   // Integrates `samples` (time-ordered, any spacing) between t_i_ns < t_j_ns with the bias
