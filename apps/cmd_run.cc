@@ -1,7 +1,7 @@
 // fsp run INPUT --out DIR [--calib FILE] [--imu FILE] [--config FILE]
 //         [--frontend rect|apriltag|gt-corners|corners] [--corners FILE] [--objects FILE]
 //         [--landmarks fsp|fhp] [--mode window|batch] [--realtime] [--follow [--idle-s S]]
-//         [--video FILE] [--show] [--seed N]
+//         [--video FILE] [--show] [--seed N] [--sync]
 // Runs the pipeline on a recording and writes trajectory.tum, map.json, observations.csv and
 // run.json.
 #include <atomic>
@@ -165,10 +165,10 @@ void AddRunCommand(CLI::App& root) {
       "csv may grow too: complete lines are read as they appear) until no new image arrived for\n"
       "--idle-s or SIGINT/SIGTERM; --realtime replays a recording at its rate and drops the "
       "frames\n"
-      "the pipeline cannot keep up with (counted in run.json). Both run the front end and the "
-      "back\n"
-      "end on their own threads (predictions one frame older than in the default synchronous "
-      "run).\n"
+      "the pipeline cannot keep up with (counted in run.json).\n"
+      "The front end and the back end run on their own threads (--sync: one after the other on "
+      "one\n"
+      "thread, for profiling; the outputs are the same bytes either way).\n"
       "Exit 0 on success (also when stopped by SIGINT/SIGTERM: the outputs are written), 2 on bad\n"
       "input (one line), 3 when a followed folder or IMU csv disappears (the outputs hold the "
       "frames\n"
@@ -219,6 +219,9 @@ void AddRunCommand(CLI::App& root) {
   sub->add_option("--video", args->request.video,
                   "also write the run as an annotated video (mp4): each frame with the objects "
                   "reported, their ids, classes and sizes, and the top view so far");
+  sub->add_flag("--sync", args->request.synchronous,
+                "run the front end and the back end one after the other on one thread (same "
+                "outputs as the default two threads; for profiling)");
   sub->add_option("--seed", args->seed,
                   "seed of the front end's pixel noise (overrides the config)");
   sub->add_flag("--print-config", args->print_config,

@@ -92,6 +92,8 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   namespace fs = std::filesystem;
   if (!fs::exists(request.source.input))
     throw InputError(request.source.input + ": INPUT not found");
+  if (request.synchronous && (request.follow || request.realtime))
+    throw InputError("--sync does not go with --follow or --realtime (live runs use two threads)");
   if (request.follow) {
     if (!from_images)
       throw InputError("--follow reads images: use --frontend rect or apriltag (not " +
@@ -155,7 +157,7 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   report.config = config.source;
   report.realtime = request.realtime;
   report.follow = request.follow;
-  report.threaded = request.realtime || request.follow;
+  report.threaded = request.realtime || request.follow || !request.synchronous;
   report.seed = gt ? config.gt_corners.seed : 0;
   report.pixel_sigma = gt ? config.gt_corners.pixel_sigma : 0.0;
   int64_t frame_period_ns = 0;
@@ -173,12 +175,13 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
 
   LiveWindow window;  // before any thread starts (see WindowOpensInChild)
   if (request.show && !window.Open(&why) && request.warn) request.warn(why);
-  // Synchronous (the default) or threaded (live modes); one of the two.
+  // Threaded (the default) or synchronous (--sync); one of the two, with the same prediction lag
+  // so that both give the same bytes.
   std::unique_ptr<pipeline::System> sync;
   std::unique_ptr<pipeline::ThreadedSystem> threaded;
   const bool keep_images = !request.video.empty() || request.show;
+  system_options.prediction_lag = 1;
   if (report.threaded) {
-    system_options.prediction_lag = 1;
     pipeline::ThreadOptions thread_options;
     thread_options.keep_images = keep_images;
     threaded =

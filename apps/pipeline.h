@@ -27,8 +27,11 @@ struct RunRequest {
   bool follow = false;
   double idle_s = 5.0;
   double poll_s = 0.02;
-  // Live modes (realtime, follow) run the front end and the back end on their own threads
-  // (pipeline::ThreadedSystem, predictions one frame older); the default runs synchronously.
+  // The front end and the back end run on their own threads (pipeline::ThreadedSystem) unless
+  // `synchronous` asks for one thread (the live modes always use threads). Both schedules give the
+  // front end the back end's state one frame old (prediction lag 1), so their outputs are
+  // byte-identical.
+  bool synchronous = false;
   // Set from outside (a signal handler): stop reading, process what is queued, write the outputs.
   const std::atomic<bool>* stop = nullptr;
   // Warnings while running (an image skipped, no display for --show); may be empty.

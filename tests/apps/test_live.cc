@@ -250,12 +250,15 @@ TEST(Live, ThreadedSystemEqualsSynchronousWithTheSameLag) {
   EXPECT_EQ(thr0.observations, sync0.observations);
   EXPECT_EQ(thr1.trajectory, sync1.trajectory);
   EXPECT_EQ(thr1.observations, sync1.observations);
-  // The synchronous default is what `fsp run` writes.
-  const test::CommandResult cli =
-      test::RunFsp("run " + Sequence().string() + " --out " + (dir / "cli").string());
-  ASSERT_EQ(cli.exit_code, 0) << cli.err;
-  EXPECT_EQ(test::Slurp(dir / "cli" / "trajectory.tum"), sync0.trajectory);
-  EXPECT_EQ(test::Slurp(dir / "cli" / "observations.csv"), sync0.observations);
+  // `fsp run` (two threads by default, --sync one) writes what the library gives at lag 1.
+  for (const std::string flag : {"", " --sync"}) {
+    const fs::path out = dir / (flag.empty() ? "cli" : "cli_sync");
+    const test::CommandResult cli =
+        test::RunFsp("run " + Sequence().string() + flag + " --out " + out.string());
+    ASSERT_EQ(cli.exit_code, 0) << cli.err;
+    EXPECT_EQ(test::Slurp(out / "trajectory.tum"), sync1.trajectory) << flag;
+    EXPECT_EQ(test::Slurp(out / "observations.csv"), sync1.observations) << flag;
+  }
 }
 
 // Frames given faster than the threads take them, with drop_oldest: a full queue drops its oldest
@@ -451,6 +454,7 @@ TEST(Live, BadInputIsOneLine) {
       {"run " + (dir / "empty").string() + " --follow --frontend gt-corners" + imu + calib + out,
        "--follow reads images"},
       {"run " + (dir / "empty").string() + " --follow --idle-s 0" + imu + calib + out, "idle"},
+      {"run " + (dir / "empty").string() + " --follow --sync" + imu + calib + out, "--sync"},
       {"run " + (dir / "empty").string() + " --follow --idle-s 0.3" + imu + calib + out,
        "no image arrived"},
   };

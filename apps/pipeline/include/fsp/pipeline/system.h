@@ -21,9 +21,9 @@
 //
 // Predictions and determinism: the front end's predictions for frame k come from the back end's
 // state after frame k - 1 - prediction_lag. With lag 0 (System's default) the front end of frame k
-// waits for the back end of frame k - 1; with lag 1 (what `fsp run` uses with threads) the front
-// end of frame k runs while the back end solves frame k - 1, and the predictions are one frame
-// older (one more frame of gyroscope-and-velocity extrapolation before the map gates a
+// waits for the back end of frame k - 1; with lag 1 (what `fsp run` uses, threaded or not) the
+// front end of frame k runs while the back end solves frame k - 1, and the predictions are one
+// frame older (one more frame of gyroscope-and-velocity extrapolation before the map gates a
 // re-identification; on the rendered rooms, the 60 s default room from pixels included, this
 // changed no output byte; where the map's prediction decides a return it could). Either way the
 // outputs depend only on the measurements and the frames given, not on timing: System and
