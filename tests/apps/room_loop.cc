@@ -12,13 +12,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The objects and the flight; test::SmallRoomRig() adds the camera, the IMU and the room.
 const char* kScene = R"(
-camera: {width: 320, height: 240, fx: 229.0, fy: 229.0, cx: 159.5, cy: 119.5, rate_hz: 20}
-T_B_C: [0, 0, 1, 0.05,  -1, 0, 0, 0.0,  0, -1, 0, 0.0,  0, 0, 0, 1]
-imu: {rate_hz: 200, gyroscope_noise_density: 1.7e-4, accelerometer_noise_density: 2.0e-3,
-      gyroscope_random_walk: 1.9e-5, accelerometer_random_walk: 3.0e-3,
-      gyroscope_bias: [0.002, -0.001, 0.0015], accelerometer_bias: [0.03, -0.02, 0.04]}
-room: {min: [0, 0, 0], max: [10, 8, 3]}
 objects:
   - {id: 1, class: door, corners: [[1.9, 0, 0], [1.0, 0, 0], [1.0, 0, 2.1], [1.9, 0, 2.1]]}
   - {id: 2, class: window, position: [4.6, 0, 1.0], rpy_deg: [90, 0, 180], width: 1.4, height: 1.2}
@@ -57,8 +52,18 @@ duration_s: 26
 
 }  // namespace
 
+std::string SmallRoomRig() {
+  return R"(
+camera: {width: 320, height: 240, fx: 229.0, fy: 229.0, cx: 159.5, cy: 119.5, rate_hz: 20}
+T_B_C: [0, 0, 1, 0.05,  -1, 0, 0, 0.0,  0, -1, 0, 0.0,  0, 0, 0, 1]
+imu: {rate_hz: 200, gyroscope_noise_density: 1.7e-4, accelerometer_noise_density: 2.0e-3,
+      gyroscope_random_walk: 1.9e-5, accelerometer_random_walk: 3.0e-3,
+      gyroscope_bias: [0.002, -0.001, 0.0015], accelerometer_bias: [0.03, -0.02, 0.04]}
+room: {min: [0, 0, 0], max: [10, 8, 3]})";
+}
+
 sim::Scene RoomLoopScene() {
-  return sim::ParseScene(kScene, "room_loop.yaml", ".");
+  return sim::ParseScene(test::SmallRoomRig() + kScene, "room_loop.yaml", ".");
 }
 
 void WriteSequenceForGtCorners(const sim::Scene& scene, const fs::path& dir) {

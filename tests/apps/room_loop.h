@@ -6,10 +6,16 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <string>
 
 #include "fsp/sim/scene.h"
 
 namespace fsp::test {
+
+// The camera (320 x 240, 20 Hz, forward-looking), its mount, the IMU (200 Hz) and the 10 x 8 x 3 m
+// room that the small end-to-end scenes share, as scene YAML: a scene is this plus its objects,
+// trajectory, noise and duration.
+std::string SmallRoomRig();
 
 // The rendered sequence's folder (one per process: CTest runs tests as parallel processes).
 const std::filesystem::path& RoomLoopSequence();
