@@ -1,6 +1,7 @@
 #include "test_util.h"
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <sstream>
@@ -12,6 +13,20 @@ std::string Slurp(const std::filesystem::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+ProcessFolder::ProcessFolder(const std::string& name,
+                             const std::function<void(const std::filesystem::path&)>& fill)
+    : path_(std::filesystem::temp_directory_path() / "fsp_tests" /
+            (name + "_" + std::to_string(::getpid()))) {
+  std::filesystem::remove_all(path_);
+  std::filesystem::create_directories(path_);
+  fill(path_);
+}
+
+ProcessFolder::~ProcessFolder() {
+  std::error_code ec;  // nothing to report at exit
+  std::filesystem::remove_all(path_, ec);
 }
 
 CommandResult RunFsp(const std::string& args) {

@@ -3,6 +3,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -32,6 +33,24 @@ inline std::filesystem::path ScratchDir() {
   std::filesystem::create_directories(dir);
   return dir;
 }
+
+// A folder for what one test process renders once and reads in several tests:
+// temp/fsp_tests/NAME_<pid>, created empty and handed to FILL (CTest runs the tests of a file as
+// parallel processes: a shared folder would be deleted by one while another reads it). Removed
+// when the object is destroyed, so a function-local static one goes when the process exits: the
+// suite leaves no renders behind.
+class ProcessFolder {
+ public:
+  ProcessFolder(const std::string& name,
+                const std::function<void(const std::filesystem::path&)>& fill);
+  ~ProcessFolder();
+  ProcessFolder(const ProcessFolder&) = delete;
+  ProcessFolder& operator=(const ProcessFolder&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
 
 struct CommandResult {
   int exit_code = 0;

@@ -1,11 +1,10 @@
 #include "room_loop.h"
 
-#include <unistd.h>
-
 #include <string>
 
 #include "fsp/sim/scene.h"
 #include "fsp/sim/sequence_writer.h"
+#include "test_util.h"
 
 namespace fsp::test {
 namespace {
@@ -77,13 +76,10 @@ void WriteSequenceForGtCorners(const sim::Scene& scene, const fs::path& dir) {
 }
 
 const fs::path& RoomLoopSequence() {
-  static const fs::path dir = [] {
-    const fs::path d = fs::temp_directory_path() / "fsp_tests" /
-                       ("room_loop_sequence_" + std::to_string(::getpid()));
+  static const ProcessFolder dir("room_loop_sequence", [](const fs::path& d) {
     WriteSequenceForGtCorners(RoomLoopScene(), d);
-    return d;
-  }();
-  return dir;
+  });
+  return dir.path();
 }
 
 }  // namespace fsp::test

@@ -57,19 +57,15 @@ duration_s: 6
 )";
 
 const fs::path& Sequence() {
-  static const fs::path dir = [] {
-    const fs::path d =
-        fs::temp_directory_path() / "fsp_tests" / ("live_sequence_" + std::to_string(::getpid()));
-    fs::remove_all(d);
+  static const test::ProcessFolder dir("live_sequence", [](const fs::path& d) {
     sim::SequenceOptions options;
     options.video = false;
     options.top_view = false;
     options.progress = false;
     sim::WriteSequence(sim::ParseScene(test::SmallRoomRig() + kScene, "live_scene.yaml", "."),
                        d.string(), options);
-    return d;
-  }();
-  return dir;
+  });
+  return dir.path();
 }
 
 fs::path Images() {

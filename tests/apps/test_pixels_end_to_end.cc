@@ -4,10 +4,11 @@
 // end is scored against the ground-truth corners (recall, precision, corner error, identities), the
 // map and the trajectory against the ground truth. The sequence is rendered once per test process
 // (~10 s).
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <string>
@@ -59,34 +60,32 @@ duration_s: 10
 )";
 
 const fs::path& Sequence() {
-  static const fs::path dir = [] {
-    const fs::path d = fs::temp_directory_path() / "fsp_tests" /
-                       ("pixels_e2e_sequence_" + std::to_string(::getpid()));
-    fs::remove_all(d);
+  static const test::ProcessFolder dir("pixels_e2e_sequence", [](const fs::path& d) {
     sim::SequenceOptions options;
     options.video = true;
     options.top_view = false;
     options.progress = false;
     sim::WriteSequence(sim::ParseScene(kScene, "pixels_e2e_scene.yaml", "."), d.string(), options);
-    return d;
-  }();
-  return dir;
+  });
+  return dir.path();
 }
 
 // A scene of assets/scenes rendered once per test process.
-fs::path RenderedClip(const std::string& name) {
-  const fs::path d =
-      fs::temp_directory_path() / "fsp_tests" / (name + "_" + std::to_string(::getpid()));
-  if (fs::exists(d / "observations_gt.csv")) return d;
-  fs::remove_all(d);
-  sim::SequenceOptions options;
-  options.video = false;
-  options.top_view = false;
-  options.progress = false;
-  sim::WriteSequence(
-      sim::LoadScene(std::string(FSP_SOURCE_DIR) + "/assets/scenes/" + name + ".yaml"), d.string(),
-      options);
-  return d;
+const fs::path& RenderedClip(const std::string& name) {
+  static std::map<std::string, std::unique_ptr<test::ProcessFolder>> clips;
+  std::unique_ptr<test::ProcessFolder>& clip = clips[name];
+  if (!clip) {
+    clip = std::make_unique<test::ProcessFolder>(name, [&name](const fs::path& d) {
+      sim::SequenceOptions options;
+      options.video = false;
+      options.top_view = false;
+      options.progress = false;
+      sim::WriteSequence(
+          sim::LoadScene(std::string(FSP_SOURCE_DIR) + "/assets/scenes/" + name + ".yaml"),
+          d.string(), options);
+    });
+  }
+  return clip->path();
 }
 
 std::string Slurp(const fs::path& p) {

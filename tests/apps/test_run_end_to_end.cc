@@ -3,7 +3,6 @@
 // front of two walls; 320 x 240 images): window mode with 1 px corner noise stays within bounds set
 // from measurement, and noise-free corners converge to the truth. The sequence is rendered once per
 // test binary run (a few seconds).
-#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -64,19 +63,15 @@ duration_s: 10
 // The sequence, rendered once per test process into its own folder (CTest runs the tests of this
 // file as parallel processes: a shared folder would be deleted by one while another reads it).
 const fs::path& Sequence() {
-  static const fs::path dir = [] {
-    const fs::path d = fs::temp_directory_path() / "fsp_tests" /
-                       ("apps_e2e_sequence_" + std::to_string(::getpid()));
-    fs::remove_all(d);
+  static const test::ProcessFolder dir("apps_e2e_sequence", [](const fs::path& d) {
     sim::SequenceOptions options;
     options.video = false;
     options.top_view = false;
     options.progress = false;
     sim::WriteSequence(sim::ParseScene(test::SmallRoomRig() + kScene, "e2e_scene.yaml", "."),
                        d.string(), options);
-    return d;
-  }();
-  return dir;
+  });
+  return dir.path();
 }
 
 struct RunResult {
