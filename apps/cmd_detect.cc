@@ -83,6 +83,7 @@ void RunDetect(const DetectArgs& args) {
     }
     std::vector<frontend::Detection> dets;
     frontend::StageTimes times;
+    std::string counts;  // rectangles: what each stage passed on
     if (args.frontend == "apriltag") {
       const double decimate = args.decimate > 0.0
                                   ? args.decimate
@@ -103,10 +104,13 @@ void RunDetect(const DetectArgs& args) {
       auto r = rect->Detect(gray, cam);
       dets = std::move(r.detections);
       times = r.times;
+      counts = "; " + std::to_string(r.segments) + " segments, " + std::to_string(r.hypotheses) +
+               " hypotheses, " + std::to_string(r.refined) + " refined";
     }
     const std::string name = std::filesystem::path(path).filename().string();
-    std::printf("%s: %zu %s in %.1f ms (%s)\n", path.c_str(), dets.size(),
-                tags ? "tags" : "rectangles", times.Total(), times.ToString().c_str());
+    std::printf("%s: %zu %s in %.1f ms (%s%s)\n", path.c_str(), dets.size(),
+                tags ? "tags" : "rectangles", times.Total(), times.ToString().c_str(),
+                counts.c_str());
     if (!args.out.empty()) {
       char buf[512];
       for (const auto& d : dets) {
