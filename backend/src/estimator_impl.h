@@ -24,7 +24,6 @@
 #include "fsp/backend/manifolds.h"
 #include "fsp/backend/marginalization.h"
 #include "fsp/backend/priors.h"
-#include "fsp/backend/reanchor.h"
 #include "fsp/backend/static_init.h"
 #include "fsp/common/error.h"
 #include "fsp/common/time.h"
