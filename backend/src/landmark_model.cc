@@ -123,7 +123,12 @@ bool AddObservationOf(FhpLandmark& l, ceres::Problem* problem, const Corners& co
   return true;
 }
 
-void AddWidthPriorOf(FhpLandmark&, ceres::Problem*, double, const LandmarkContext&) {}
+void AddWidthPriorOf(FhpLandmark& l, ceres::Problem* problem, double width_m,
+                     const LandmarkContext& c) {
+  if (!problem->HasParameterBlock(l.corner[0])) return;
+  problem->AddResidualBlock(MakeFhpLogWidthPrior(width_m, c.prior_log_omega_sigma), nullptr,
+                            l.corner[0], l.corner[1], l.corner[2], l.corner[3]);
+}
 
 const double* FirstBlock(const FhpLandmark& l) {
   return l.corner[0];

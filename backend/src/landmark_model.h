@@ -47,8 +47,9 @@ class Landmark {
   bool AddObservation(ceres::Problem* problem, const Corners& corners, double* camera_pose,
                       double* anchor_pose, const Rigid3& T_W_C, const Rigid3& T_W_F,
                       const LandmarkContext& c);
-  // The prior on the metric width (class size `width_m`) when the model has one and its blocks are
-  // in the problem (FSP: LogWidthPrior; FHP: none).
+  // The prior on the metric width (the class's typical width `width_m`, σ prior_log_omega_sigma
+  // in log) when the landmark's blocks are in the problem (priors.h: FSP's LogWidthPrior, FHP's
+  // MakeFhpLogWidthPrior). Without parallax (hover) it is all that holds the depth.
   void AddWidthPrior(ceres::Problem* problem, double width_m, const LandmarkContext& c);
   bool InProblem(const ceres::Problem& problem) const;
 

@@ -1,8 +1,8 @@
 // The estimator's landmark-model interface (backend/src/landmark_model.h), FSP and FHP: the same
 // rectangle gives the same prediction, pose and size in both; re-anchoring keeps the prediction and
 // refuses an anchor the object is behind; an observation adds each model's blocks, factors and
-// depth bounds (zero residual at the truth), nothing when behind the camera; the width prior and
-// the scale block are FSP's only; FSP's size σ agrees with FspLandmark::SizeSigma.
+// depth bounds (zero residual at the truth), nothing when behind the camera; both have a width
+// prior; the scale block is FSP's only; FSP's size σ agrees with FspLandmark::SizeSigma.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -124,10 +124,10 @@ TEST(LandmarkModel, ObservationAddsBlocksFactorsAndDepthBounds) {
   const Corners z_anchor = test::ProjectCorners(c.K, s.T_W_F, s.object);
   struct Expected {
     LandmarkType type;
-    int blocks_per_view, landmark_blocks, prior_blocks;
+    int blocks_per_view, landmark_blocks, prior_blocks;  // residual blocks / parameter blocks
   };
   for (const Expected e :
-       {Expected{LandmarkType::kFsp, 1, 2, 1}, Expected{LandmarkType::kFhp, 4, 4, 0}}) {
+       {Expected{LandmarkType::kFsp, 1, 2, 1}, Expected{LandmarkType::kFhp, 4, 4, 1}}) {
     Landmark l = Landmark::FromSingleView(e.type, s.truth);
     ceres::Problem::Options po;
     po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
