@@ -183,8 +183,7 @@ void Estimator::Impl::InitializeNewObjects(Keyframe* kf) {
     obj->object_class = o.object_class;
     obj->anchor = kf;
     obj->first_seen = kf->index;
-    obj->fsp = s.landmark;
-    obj->fhp = FhpLandmark::FromFsp(s.landmark);
+    obj->landmark = Landmark::FromSingleView(options.landmarks, s.landmark);
     obj->width_prior_m = s.landmark.Width();
     objects[o.object_id] = std::move(obj);
   }
@@ -305,20 +304,13 @@ void Estimator::Impl::ReanchorObjectsOf(Keyframe* old) {
       // with 10 s of nothing in view: the old objects collapsed onto the depth bound.
       if (options.global.enabled && !Sees(*cand, id)) continue;
       const Rigid3 T_W_Fnew = CameraPose(*cand);
-      FspLandmark fsp_new;
-      FhpLandmark fhp_new;
-      const bool ok = options.landmarks == LandmarkType::kFsp
-                          ? ReanchorFsp(obj->fsp, T_W_F, T_W_Fnew, &fsp_new)
-                          : ReanchorFhp(obj->fhp, T_W_F, T_W_Fnew, &fhp_new);
+      Landmark moved = obj->landmark;
       // A keyframe that sees s1 barely in front (looking along the wall past it) would put the
       // object's depth outside the box, where the bound clamps it and destroys its geometry
       // (measured: the default scene's objects collapsed onto the 0.3 m minimum right after such
       // a re-anchoring); take the newest keyframe that keeps the depth inside.
-      if (!ok || !DepthInBox(fsp_new, fhp_new)) continue;
-      if (options.landmarks == LandmarkType::kFsp)
-        obj->fsp = fsp_new;
-      else
-        obj->fhp = fhp_new;
+      if (!moved.Reanchor(T_W_F, T_W_Fnew) || !DepthInBox(moved)) continue;
+      obj->landmark = moved;
       obj->anchor = cand;
 
       ++summary.reanchors;
@@ -611,9 +603,8 @@ std::vector<MapObject> Estimator::Map() const {
     m.object_class = obj->object_class;
     m.observations = obj->observations;
     const Rigid3 T_W_F = d.CameraPose(*obj->anchor);
-    m.corners_W = d.options.landmarks == LandmarkType::kFsp ? obj->fsp.CornersW(T_W_F)
-                                                            : obj->fhp.CornersW(T_W_F);
-    std::tie(m.width, m.height) = d.ObjectSize(*obj);
+    m.corners_W = obj->landmark.CornersW(T_W_F);
+    std::tie(m.width, m.height) = obj->landmark.Size();
     m.T_W_O = d.ObjectPose(*obj);
     auto it = d.sigmas.find(obj);
     m.width_sigma = it == d.sigmas.end() ? -1.0 : it->second.first;

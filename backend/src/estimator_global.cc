@@ -54,7 +54,7 @@ bool Estimator::Impl::PreAlign(Object* obj, Keyframe* kf, const Corners& corners
       corners, K, obj->object_class, options.init, UpDirection(obj->object_class, CameraPose(*kf)));
   if (!sv.success()) return false;
   FspLandmark view = sv.landmark;
-  const auto [w_map, h_map] = ObjectSize(*obj);
+  const auto [w_map, h_map] = obj->landmark.Size();
   view.x[kFspLogOmega] += 0.5 * (std::log(view.Width() / w_map) + std::log(view.Height() / h_map));
   const Rigid3 T_W_Cmap = ObjectPose(*obj) * view.T_F_O().Inverse();
   const Rigid3 T_W_C = CameraPose(*kf);
@@ -88,11 +88,7 @@ bool Estimator::Impl::PreAlign(Object* obj, Keyframe* kf, const Corners& corners
     VelocityOf(st.speed_bias) = Rz * st.v_W();
   }
   for (auto& [o, T_W_F_before] : stay) {
-    const Rigid3 T_W_F_after = CameraPose(*o->anchor);
-    if (options.landmarks == LandmarkType::kFsp)
-      ReanchorFsp(FspLandmark(o->fsp), T_W_F_before, T_W_F_after, &o->fsp);
-    else
-      ReanchorFhp(FhpLandmark(o->fhp), T_W_F_before, T_W_F_after, &o->fhp);
+    o->landmark.Reanchor(T_W_F_before, CameraPose(*o->anchor));
   }
   const std::optional<double> e1 = PredictionError(*obj, CameraPose(*kf), corners);
   if (!e1 || *e1 > g.loop_accept_px || (error_before && *e1 >= *error_before)) {
@@ -180,14 +176,11 @@ void Estimator::Impl::ApplyGlobal() {
     auto it = objects.find(id);
     if (it == objects.end() || it->second.get() != j->originals.at(id)) continue;
     Object& o = *it->second;
-    if (o.anchor->index == c->anchor->index) {
-      o.fsp = c->fsp;
-      o.fhp = c->fhp;
-    } else if (options.landmarks == LandmarkType::kFsp) {
-      ReanchorFsp(c->fsp, CameraPose(*c->anchor), CameraPose(*o.anchor), &o.fsp);
-    } else {
-      ReanchorFhp(c->fhp, CameraPose(*c->anchor), CameraPose(*o.anchor), &o.fhp);
-    }
+    // Expressed at its current anchor (unchanged when that fails, as a re-anchoring does).
+    Landmark solved = c->landmark;
+    if (o.anchor->index == c->anchor->index ||
+        solved.Reanchor(CameraPose(*c->anchor), CameraPose(*o.anchor)))
+      o.landmark = solved;
   }
   for (auto& kf : keyframes) output[kf->frame] = kf->state.ToStateSample();
   if (prior) prior = Recentered(*prior);

@@ -20,15 +20,14 @@
 
 #include <ceres/ceres.h>
 
-#include "fsp/backend/fhp_factor.h"
 #include "fsp/backend/imu_factor.h"
 #include "fsp/backend/manifolds.h"
 #include "fsp/backend/marginalization.h"
 #include "fsp/backend/priors.h"
-#include "fsp/backend/reanchor.h"
 #include "fsp/backend/static_init.h"
 #include "fsp/common/error.h"
 #include "fsp/common/time.h"
+#include "landmark_model.h"
 
 namespace fsp::backend {
 
@@ -73,9 +72,8 @@ struct Object {
   int id = -1;
   ObjectClass object_class = ObjectClass::kUnknown;
   Keyframe* anchor = nullptr;  // F = camera frame of this keyframe
-  FspLandmark fsp;
-  FhpLandmark fhp;
-  double width_prior_m = 1.0;
+  Landmark landmark;
+  double width_prior_m = 1.0;  // the class's typical width (the single-view initialisation's)
   int observations = 0;
   int first_seen = -1;  // index of the keyframe that first saw it (its first anchor)
   int last_seen = -1;   // index of the newest keyframe that saw it
@@ -99,6 +97,14 @@ struct Estimator::Impl {
     K = calibration.camera.K();
     T_B_C = calibration.T_B_C;
     options.imu.noise = calibration.imu;
+    landmark_context = {K,
+                        T_B_C,
+                        options.factor,
+                        options.robust,
+                        options.min_depth_m,
+                        options.max_depth_m,
+                        options.prior_log_omega_sigma,
+                        &quat_manifold};
   }
   ~Impl() { DiscardGlobal(); }
   Impl(const Impl&) = delete;
@@ -166,6 +172,7 @@ struct Estimator::Impl {
 
   PoseManifold pose_manifold;
   ceres::EigenQuaternionManifold quat_manifold;
+  LandmarkContext landmark_context;  // the landmarks' view of the above
 
   // --- IMU -------------------------------------------------------------------------------------
   std::vector<ImuSample> ImuBetween(int64_t t0, int64_t t1) const {
@@ -306,24 +313,14 @@ struct Estimator::Impl {
   // nullopt when the object is behind the camera.
   std::optional<double> PredictionError(const Object& obj, const Rigid3& T_W_C,
                                         const Corners& corners) const {
-    const Rigid3 T_W_F = CameraPose(*obj.anchor);
-    const CornerPrediction p = options.landmarks == LandmarkType::kFsp
-                                   ? PredictFspCorners(K, T_W_C, T_W_F, obj.fsp)
-                                   : PredictFhpCorners(K, T_W_C, T_W_F, obj.fhp);
+    const CornerPrediction p = obj.landmark.Predict(K, T_W_C, CameraPose(*obj.anchor));
     if (!p.in_front) return std::nullopt;
     double sum2 = 0.0;
     for (int j = 0; j < 4; ++j) sum2 += (p.uv[j] - corners[j]).squaredNorm();
     return std::sqrt(sum2 / 4.0);
   }
 
-  Rigid3 ObjectPose(const Object& obj) const {
-    const Rigid3 T_W_F = CameraPose(*obj.anchor);
-    return options.landmarks == LandmarkType::kFsp ? obj.fsp.T_W_O(T_W_F) : obj.fhp.T_W_O(T_W_F);
-  }
-  std::pair<double, double> ObjectSize(const Object& obj) const {
-    return options.landmarks == LandmarkType::kFsp ? std::pair{obj.fsp.Width(), obj.fsp.Height()}
-                                                   : std::pair{obj.fhp.Width(), obj.fhp.Height()};
-  }
+  Rigid3 ObjectPose(const Object& obj) const { return obj.landmark.T_W_O(CameraPose(*obj.anchor)); }
 
   // --- Loops (global step) -----------------------------------------------------------------------
   // An object seen again after it left the window, observed with `corners` from `kf`: keeps its
@@ -349,18 +346,9 @@ struct Estimator::Impl {
   // Whether the object's depth sits on the box [min_depth_m, max_depth_m] (an FHP corner's, any):
   // such a depth is not an estimate (no parallax; or, seen in window mode and not yet understood, a
   // collapse onto the minimum), so neither are its size and place; the map leaves it out.
-  bool AtDepthBound(const Object& obj) const { return !DepthInBox(obj.fsp, obj.fhp); }
-
-  // Whether the depth of s1 (FSP) or of every corner (FHP) lies strictly inside the depth box.
-  bool DepthInBox(const FspLandmark& fsp, const FhpLandmark& fhp) const {
-    const double lo = -std::log(options.max_depth_m), hi = -std::log(options.min_depth_m);
-    const auto inside = [&](double log_omega) {
-      return log_omega > lo + 1e-6 && log_omega < hi - 1e-6;
-    };
-    if (options.landmarks == LandmarkType::kFsp) return inside(fsp.x[kFspLogOmega]);
-    for (const auto& c : fhp.corner)
-      if (!inside(c[2])) return false;
-    return true;
+  bool AtDepthBound(const Object& obj) const { return !DepthInBox(obj.landmark); }
+  bool DepthInBox(const Landmark& l) const {
+    return l.DepthInBox(options.min_depth_m, options.max_depth_m);
   }
 
   // --- Problem construction
@@ -369,17 +357,6 @@ struct Estimator::Impl {
   // problem (`is_variable` false: they left the window) enter as constants.
   void AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj, const Corners& corners,
                       const std::function<bool(const Keyframe*)>& is_variable);
-
-  // Keeps an inverse depth ω = exp(x[i]) within [1/max_depth, 1/min_depth]: an object with no
-  // parallax yet (hover, far away) must not drift to infinity and drag the trajectory with it. The
-  // current value is clamped into the box first (Ceres requires a feasible start).
-  static void BoundLogParameter(ceres::Problem* problem, double* block, int i, double min_depth,
-                                double max_depth) {
-    const double lo = -std::log(max_depth), hi = -std::log(min_depth);
-    block[i] = std::clamp(block[i], lo, hi);
-    problem->SetParameterLowerBound(block, i, lo);
-    problem->SetParameterUpperBound(block, i, hi);
-  }
 
   // Observation factors of keyframes [begin, end) and, for every object they see, its past views.
   // `mature`: only objects seen at least options.mature_views times (they constrain the poses), or
@@ -426,15 +403,15 @@ struct Estimator::Impl {
   // The values a solve may change, to restore when its result is rejected.
   struct Snapshot {
     size_t begin = 0;
-    std::vector<KeyframeState> states;                         // keyframes [begin, end)
-    std::vector<std::pair<FspLandmark, FhpLandmark>> objects;  // in the order of `objects`
+    std::vector<KeyframeState> states;  // keyframes [begin, end)
+    std::vector<Landmark> objects;      // in the order of `objects`
   };
   Snapshot Save(size_t begin) const { return Save(keyframes, objects, begin); }
   static Snapshot Save(const Keyframes& kfs, const Objects& objs, size_t begin) {
     Snapshot s;
     s.begin = begin;
     for (size_t i = begin; i < kfs.size(); ++i) s.states.push_back(kfs[i]->state);
-    for (const auto& [id, obj] : objs) s.objects.emplace_back(obj->fsp, obj->fhp);
+    for (const auto& [id, obj] : objs) s.objects.push_back(obj->landmark);
     return s;
   }
   void Restore(const Snapshot& s) { Restore(s, &keyframes, &objects); }
@@ -445,11 +422,7 @@ struct Estimator::Impl {
       std::copy(s.states[k].speed_bias, s.states[k].speed_bias + kSpeedBiasSize, st.speed_bias);
     }
     size_t k = 0;
-    for (auto& [id, obj] : *objs) {
-      obj->fsp = s.objects[k].first;
-      obj->fhp = s.objects[k].second;
-      ++k;
-    }
+    for (auto& [id, obj] : *objs) obj->landmark = s.objects[k++];
   }
 
   // Why a solve's result is implausible (empty when it is not): the solver failed, a state is not
@@ -471,13 +444,8 @@ struct Estimator::Impl {
 
   void AddObjectPriors(ceres::Problem* problem) { AddObjectPriors(problem, &objects); }
   void AddObjectPriors(ceres::Problem* problem, Objects* objs) const {
-    if (options.landmarks != LandmarkType::kFsp) return;
-    for (auto& [id, obj] : *objs) {
-      if (!problem->HasParameterBlock(obj->fsp.x)) continue;
-      problem->AddResidualBlock(
-          new LogWidthPrior(obj->width_prior_m, options.prior_log_omega_sigma), nullptr,
-          obj->fsp.x);
-    }
+    for (auto& [id, obj] : *objs)
+      obj->landmark.AddWidthPrior(problem, obj->width_prior_m, landmark_context);
   }
 
   ceres::Problem::Options ProblemOptions() const {
@@ -606,48 +574,6 @@ struct Estimator::Impl {
   std::map<const Object*, std::pair<double, double>> sigmas;  // (σ_w, σ_h)
 
   void ComputeSigmas(ceres::Problem* problem);
-
-  static std::pair<double, double> FspSigmas(const ceres::Covariance& covariance,
-                                             const FspLandmark& l) {
-    double c[25];
-    covariance.GetCovarianceBlock(l.x, l.x, c);
-    Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
-    // log w = log w̄ − log ω;  log h = log w̄ − log f − log ω;  σ_w = w σ_log w.
-    Eigen::Matrix<double, 1, 5> jw = Eigen::Matrix<double, 1, 5>::Zero(), jh = jw;
-    jw[kFspLogWbar] = 1.0;
-    jw[kFspLogOmega] = -1.0;
-    jh = jw;
-    jh[kFspLogForm] = -1.0;
-    return {l.Width() * std::sqrt(std::max(0.0, (jw * C * jw.transpose())(0))),
-            l.Height() * std::sqrt(std::max(0.0, (jh * C * jh.transpose())(0)))};
-  }
-
-  // FHP: w and h are functions of the 12 corner parameters (all in the anchor frame, so the anchor
-  // pose does not enter): σ² = J C Jᵀ with C the joint 12 x 12 covariance and J by central
-  // differences.
-  static std::pair<double, double> FhpSigmas(const ceres::Covariance& covariance,
-                                             const FhpLandmark& l) {
-    Eigen::Matrix<double, 12, 12> C;
-    for (int a = 0; a < 4; ++a)
-      for (int b = a; b < 4; ++b) {
-        double c[9];
-        covariance.GetCovarianceBlock(l.corner[a], l.corner[b], c);
-        const Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Cab(c);
-        C.block<3, 3>(3 * a, 3 * b) = Cab;
-        C.block<3, 3>(3 * b, 3 * a) = Cab.transpose();
-      }
-    Eigen::Matrix<double, 2, 12> J;
-    constexpr double kStep = 1e-6;
-    for (int k = 0; k < 12; ++k) {
-      FhpLandmark plus = l, minus = l;
-      plus.corner[k / 3][k % 3] += kStep;
-      minus.corner[k / 3][k % 3] -= kStep;
-      J(0, k) = (plus.Width() - minus.Width()) / (2.0 * kStep);
-      J(1, k) = (plus.Height() - minus.Height()) / (2.0 * kStep);
-    }
-    const Eigen::Matrix2d S = J * C * J.transpose();
-    return {std::sqrt(std::max(0.0, S(0, 0))), std::sqrt(std::max(0.0, S(1, 1)))};
-  }
 
   void FinishWindow() {
     if (keyframes.empty()) return;

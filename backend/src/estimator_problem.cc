@@ -17,12 +17,10 @@
 
 #include <ceres/ceres.h>
 
-#include "fsp/backend/fhp_factor.h"
 #include "fsp/backend/imu_factor.h"
 #include "fsp/backend/manifolds.h"
 #include "fsp/backend/marginalization.h"
 #include "fsp/backend/priors.h"
-#include "fsp/backend/reanchor.h"
 #include "fsp/backend/static_init.h"
 #include "fsp/common/error.h"
 #include "fsp/common/time.h"
@@ -56,7 +54,6 @@ void Estimator::Impl::AddVisualFactors(ceres::Problem* problem, size_t begin, si
 
 void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
   sigmas.clear();
-  const bool fsp = options.landmarks == LandmarkType::kFsp;
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::SPARSE_QR;
   co.num_threads = 1;
@@ -64,21 +61,20 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
   std::vector<std::pair<const double*, const double*>> blocks;
   std::vector<Object*> in_problem;
   for (auto& [id, obj] : objects) {
-    if (!problem->HasParameterBlock(fsp ? obj->fsp.x : obj->fhp.corner[0])) continue;
+    if (!obj->landmark.InProblem(*problem)) continue;
     in_problem.push_back(obj.get());
-    if (fsp) blocks.emplace_back(obj->fsp.x, obj->fsp.x);
-    for (int a = 0; !fsp && a < 4; ++a)
-      for (int b = a; b < 4; ++b) blocks.emplace_back(obj->fhp.corner[a], obj->fhp.corner[b]);
+    obj->landmark.AppendCovarianceBlocks(&blocks);
   }
   // The map's scale (EstimatorSummary::scale_sigma): the objects the map reports, with their
-  // cross-covariances.
+  // cross-covariances (models with a scale block only).
   std::vector<const Object*> mapped;
   for (const Object* obj : in_problem)
-    if (fsp && obj->observations >= options.min_observations && !AtDepthBound(*obj))
+    if (obj->landmark.ScaleBlock() && obj->observations >= options.min_observations &&
+        !AtDepthBound(*obj))
       mapped.push_back(obj);
   for (size_t i = 0; i < mapped.size(); ++i)
     for (size_t j = i + 1; j < mapped.size(); ++j)
-      blocks.emplace_back(mapped[i]->fsp.x, mapped[j]->fsp.x);
+      blocks.emplace_back(mapped[i]->landmark.ScaleBlock(), mapped[j]->landmark.ScaleBlock());
   summary.scale_sigma = -1.0;
   if (blocks.empty() || !covariance.Compute(blocks, problem)) return;
   // ceres::Covariance orders its columns by parameter block address, so the last bits of a σ
@@ -89,23 +85,16 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
     return std::round(v * scale) / scale;
   };
   for (Object* obj : in_problem) {
-    const auto [sw, sh] = fsp ? FspSigmas(covariance, obj->fsp) : FhpSigmas(covariance, obj->fhp);
+    const auto [sw, sh] = obj->landmark.SizeSigmas(covariance);
     sigmas[obj] = {round9(sw), round9(sh)};
   }
   if (mapped.empty()) return;
-  // ½ (log w + log h) = log w̄ − log ω − ½ log f.
-  Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
-  g[kFspLogWbar] = 1.0;
-  g[kFspLogOmega] = -1.0;
-  g[kFspLogForm] = -0.5;
+  // σ of the mean log scale: Cov(s_i, s_j) summed over every pair.
   double var = 0.0;
   for (size_t i = 0; i < mapped.size(); ++i)
-    for (size_t j = i; j < mapped.size(); ++j) {
-      double c[25];
-      covariance.GetCovarianceBlock(mapped[i]->fsp.x, mapped[j]->fsp.x, c);
-      const Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
-      var += (i == j ? 1.0 : 2.0) * g.dot(C * g);
-    }
+    for (size_t j = i; j < mapped.size(); ++j)
+      var += (i == j ? 1.0 : 2.0) *
+             mapped[i]->landmark.ScaleCovariance(covariance, mapped[j]->landmark);
   const double n = static_cast<double>(mapped.size());
   summary.scale_sigma = round9(std::sqrt(std::max(0.0, var)) / n);
 }
@@ -118,36 +107,9 @@ void Estimator::Impl::AddObservation(ceres::Problem* problem, Keyframe* kf, Obje
     problem->AddParameterBlock(k->state.pose, kPoseSize, &pose_manifold);
     problem->SetParameterBlockConstant(k->state.pose);
   }
-  const Rigid3 T_W_C = CameraPose(*kf);
-  const Rigid3 T_W_F = CameraPose(*obj->anchor);
-  const bool at_anchor = obj->anchor == kf;
-  if (options.landmarks == LandmarkType::kFsp) {
-    if (!PredictFspCorners(K, T_W_C, T_W_F, obj->fsp).in_front) return;  // behind the camera
-    ceres::LossFunction* loss = MakeRobustLoss(options.robust, 8).release();
-    if (at_anchor) {
-      problem->AddResidualBlock(new FspAnchorFactor(corners, K, options.factor), loss,
-                                obj->fsp.q_F_O, obj->fsp.x);
-    } else {
-      problem->AddResidualBlock(new FspFactor(corners, K, T_B_C, options.factor), loss,
-                                kf->state.pose, obj->anchor->state.pose, obj->fsp.q_F_O,
-                                obj->fsp.x);
-    }
-    problem->SetManifold(obj->fsp.q_F_O, &quat_manifold);
-    BoundLogParameter(problem, obj->fsp.x, kFspLogOmega, options.min_depth_m, options.max_depth_m);
-  } else {
-    if (!PredictFhpCorners(K, T_W_C, T_W_F, obj->fhp).in_front) return;  // behind the camera
-    for (int j = 0; j < 4; ++j) {
-      ceres::LossFunction* loss = MakeRobustLoss(options.robust, 2).release();
-      if (at_anchor) {
-        problem->AddResidualBlock(new FhpAnchorFactor(corners[j], K, options.factor), loss,
-                                  obj->fhp.corner[j]);
-      } else {
-        problem->AddResidualBlock(new FhpFactor(corners[j], K, T_B_C, options.factor), loss,
-                                  kf->state.pose, obj->anchor->state.pose, obj->fhp.corner[j]);
-      }
-      BoundLogParameter(problem, obj->fhp.corner[j], 2, options.min_depth_m, options.max_depth_m);
-    }
-  }
+  // Nothing added when the object is behind the camera.
+  obj->landmark.AddObservation(problem, corners, kf->state.pose, obj->anchor->state.pose,
+                               CameraPose(*kf), CameraPose(*obj->anchor), landmark_context);
 }
 
 std::string Estimator::Impl::Diverged(const ceres::Solver::Summary& s, const Snapshot& before,

@@ -95,6 +95,25 @@ struct ImuGapResidual {
   }
 };
 
+struct FhpLogWidthResidual {
+  double log_w0, inv_sigma;
+
+  template <typename T>
+  bool operator()(const T* c1, const T* c2, const T* c3, const T* c4, T* r) const {
+    using std::exp;
+    using std::log;
+    using std::sqrt;
+    // p_F(s_j) = (u_j, v_j, 1) / ω_j.
+    const auto edge = [](const T* a, const T* b) {
+      const T da = exp(-a[2]), db = exp(-b[2]);
+      const T dx = b[0] * db - a[0] * da, dy = b[1] * db - a[1] * da, dz = db - da;
+      return sqrt(dx * dx + dy * dy + dz * dz);
+    };
+    r[0] = (log(T(0.5) * (edge(c1, c2) + edge(c4, c3))) - T(log_w0)) * T(inv_sigma);
+    return true;
+  }
+};
+
 }  // namespace
 
 ceres::CostFunction* MakeImuGapPrior(double dt_s, const ImuGapPriorOptions& o) {
@@ -107,6 +126,12 @@ ceres::CostFunction* MakeImuGapPrior(double dt_s, const ImuGapPriorOptions& o) {
                          1.0 / (o.gyro_walk * std::sqrt(dt_s)),
                          1.0 / (o.acc_walk * std::sqrt(dt_s))};
   return new ceres::AutoDiffCostFunction<ImuGapResidual, 15, 7, 9, 7, 9>(new ImuGapResidual(r));
+}
+
+ceres::CostFunction* MakeFhpLogWidthPrior(double width_prior_m, double sigma_log) {
+  FSP_CHECK(width_prior_m > 0.0 && sigma_log > 0.0);
+  return new ceres::AutoDiffCostFunction<FhpLogWidthResidual, 1, 3, 3, 3, 3>(
+      new FhpLogWidthResidual{std::log(width_prior_m), 1.0 / sigma_log});
 }
 
 }  // namespace fsp::backend

@@ -1,5 +1,8 @@
 // The priors of priors.h: analytic (or automatic) Jacobians against central differences through
 // each block's manifold, and the residuals the IMU-gap motion prior is documented to give.
+#include <array>
+#include <cmath>
+#include <memory>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -7,6 +10,7 @@
 #include "fsp/backend/fsp_landmark.h"
 #include "fsp/backend/manifolds.h"
 #include "fsp/backend/priors.h"
+#include "fsp/backend/reanchor.h"
 #include "fsp/backend/state.h"
 #include "jacobian_check.h"
 
@@ -52,6 +56,36 @@ TEST(Priors, LogWidthPriorJacobianMatchesNumeric) {
   ASSERT_TRUE(prior.Evaluate(params, &r, nullptr));
   // w = w̄ / ω = 0.3 / 0.25 = 1.2 m: the prior's width, no residual.
   EXPECT_NEAR(r, 0.0, 1e-12);
+}
+
+// FHP's width prior: the residual is log(w / w_prior) / σ with w = FhpLandmark::Width(), the same
+// for any anchor of the same corners, and its automatic Jacobians agree with central differences.
+TEST(Priors, FhpLogWidthPriorFollowsTheCornersWidth) {
+  const Rigid3 T_F_O(RotFromRpy(0.1, -0.3, 0.2), Vec3(-0.4, 0.2, 3.0));
+  std::array<Vec3, 4> p_F;
+  const double w = 1.3, h = 0.8;
+  const double xi[4] = {0.0, 1.0, 1.0, 0.0}, eta[4] = {0.0, 0.0, 1.0, 1.0};
+  for (int j = 0; j < 4; ++j) p_F[j] = T_F_O * Vec3(xi[j] * w, eta[j] * h, 0.0);
+  FhpLandmark l = FhpLandmark::FromCornersF(p_F);
+  l.corner[2][2] += 0.3;  // not a rectangle any more: the width is the mean of the two edges
+  const double sigma = 0.5;
+  std::unique_ptr<ceres::CostFunction> prior(MakeFhpLogWidthPrior(1.0, sigma));
+  const auto residual = [&](const FhpLandmark& m) {
+    double r = 0.0;
+    const double* params[] = {m.corner[0], m.corner[1], m.corner[2], m.corner[3]};
+    EXPECT_TRUE(prior->Evaluate(params, &r, nullptr));
+    return r;
+  };
+  EXPECT_NEAR(residual(l), std::log(l.Width()) / sigma, 1e-12);
+  EXPECT_GT(std::abs(std::log(l.Width() / w)), 0.01);  // the edit changed the width
+  // Another anchor, the same corners: the same residual.
+  const Rigid3 T_W_F(RotFromRpy(0.0, 0.2, 1.0), Vec3(1.0, 2.0, 0.5));
+  const Rigid3 T_W_Fnew(RotFromRpy(0.1, 0.0, 0.6), Vec3(2.0, 1.0, 0.3));
+  FhpLandmark moved;
+  ASSERT_TRUE(ReanchorFhp(l, T_W_F, T_W_Fnew, &moved));
+  EXPECT_NEAR(residual(moved), residual(l), 1e-12);
+  EXPECT_TRUE(test::ExpectJacobiansOk(*prior, {l.corner[0], l.corner[1], l.corner[2], l.corner[3]},
+                                      {nullptr, nullptr, nullptr, nullptr}, 1e-6));
 }
 
 TEST(Priors, ImuGapPriorJacobiansMatchNumeric) {

@@ -196,8 +196,10 @@ struct EstimatorOptions {
   // is only known to be small.
   double prior_gyro_bias_sigma = 0.01;  // [rad/s]
   double prior_acc_bias_sigma = 0.2;    // [m/s^2]
-  // Weak prior on each object's log inverse depth around its single-view (class prior) value. Keeps
-  // the problem well posed before parallax exists (hover); 1.0 = "within a factor e".
+  // Weak prior on each object's log inverse depth around its single-view (class prior) value, as a
+  // prior on its metric width at the class's typical width (priors.h: FSP's log w̄ − log ω, FHP's
+  // mean of its two width edges). Keeps the problem well posed before parallax exists (hover);
+  // 1.0 = "within a factor e".
   double prior_log_omega_sigma = 1.0;
   // Views of an object from keyframes that left the window, kept as factors with the keyframe pose
   // held constant (newest kept). They carry the object's accumulated information; more: better

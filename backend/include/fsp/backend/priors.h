@@ -48,6 +48,11 @@ class LogWidthPrior final : public ceres::SizedCostFunction<1, 5> {
   double log_w0_, inv_sigma_;
 };
 
+// The same prior on an FHP object's metric width, w = (|s2 − s1| + |s3 − s4|) / 2 as
+// FhpLandmark::Width (invariant to re-anchoring): r = (log w − log w_prior) / σ. Blocks: the four
+// corners' fhp[3] (fsp_landmark.h). Automatic derivatives.
+ceres::CostFunction* MakeFhpLogWidthPrior(double width_prior_m, double sigma_log);
+
 // Stands in for the IMU factor between two keyframes when the IMU stream has a hole between them
 // (a driver gap: preintegration over missing samples is unusable). A constant-velocity motion
 // model with an inflated covariance, the 15 residuals of the IMU factor's blocks:
