@@ -40,11 +40,6 @@ namespace fsp::backend {
 using Vec5 = Eigen::Matrix<double, 5, 1>;
 using Mat34 = Eigen::Matrix<double, 3, 4>;  // same alias as manifolds.h
 
-// Pose parameter block layout shared with the IMU side (state.h): pose[7] = (p_W_B x y z, q_W_B x y
-// z w).
-Rigid3 Rigid3FromPoseBlock(const double* pose);
-void Rigid3ToPoseBlock(const Rigid3& T, double* pose);
-
 // Ambient Jacobian of a rotation w.r.t. its Eigen quaternion coefficients (x, y, z, w).
 // For a unit q and an ambient step dq, R(q + dq) = Exp(φ) R(q) to first order with φ = J dq, where
 //   J = 2 [q_w I + [q_v]×, −q_v]   (3×4; the radial direction q gives φ = 0: R(q/|q|) is
