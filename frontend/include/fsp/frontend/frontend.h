@@ -55,6 +55,18 @@ struct FrontEndOptions {
   // ...within this many frames of its start; a candidate still unconfirmed then is forgotten (a
   // stray detection, and while a candidate waits the detector runs on every frame) [frames].
   int confirm_within_frames = 10;
+  // A candidate whose quad and an unmatched detection's overlap (each holds the other's centre,
+  // areas within 2x) but are too far apart to match is replaced by the detection (which keeps its
+  // votes and may re-identify a dormant object): the candidate was started from a wrong outline
+  // (closed by an inner edge at the image border) that its track keeps following.
+  bool replace_candidates = true;
+  // A plain detection with a corner within `border_margin_px` of the image border does not confirm
+  // a candidate (it may be an outline closed by an inner edge, the object's side just out of view);
+  // the next one away from the border does.
+  bool confirm_away_from_border = true;
+  // The detector also runs on every frame where the back end predicts a dormant object wholly in
+  // view, so that a returning object is re-identified in its first frame back in view.
+  bool detect_on_predicted_return = true;
   // A detection matches a live track when their mean corner distance (best cyclic shift) is below
   // this fraction of the track's shortest side (at least 3 px). Larger tolerates worse tracks but
   // can steal a neighbour's detection.
@@ -92,6 +104,9 @@ struct FrontEndOptions {
   // ...unless a corner of the detection lies within this of the image border [px]: there the
   // detector may have closed the quad with an inner edge (the object's side just out of view).
   double border_margin_px = 8.0;
+  // A decoded AprilTag matched to its live track puts the track onto the tag's corners the same way
+  // (more than correct_px off; the decoder's corners are exact, the border does not matter).
+  bool correct_tags = true;
   // DetectorKind::kRect: the whole frame is also scanned for AprilTags every this many frames (at a
   // frame where the rectangle detector runs) [frames]: tags too small for the rectangle detector's
   // minimum side are found this way. 0: never (tags then come only from tag-like rectangles).
