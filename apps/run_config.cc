@@ -149,6 +149,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.confirm_within_frames", &f.confirm_within_frames, kAtLeastOne},
       {"frontend.replace_candidates", &f.replace_candidates, kAny},
       {"frontend.confirm_away_from_border", &f.confirm_away_from_border, kAny},
+      {"frontend.reid_at_confirmation", &f.reid_at_confirmation, kAny},
       {"frontend.detect_on_predicted_return", &f.detect_on_predicted_return, kAny},
       {"frontend.match_gate_frac", &f.match_gate_frac, kNonNegative},
       {"frontend.reid_min_similarity", &f.reid_min_similarity, kNonNegative},

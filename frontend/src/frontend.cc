@@ -240,7 +240,9 @@ struct FrontEnd::Impl {
         if (pid != id) continue;
         const double dist = MeanCornerDistanceBestShift(pc, d.corners_undistorted);
         near = dist <= o.reid_gate_frac * ShortestSide(pc);
-        if (near) need = o.reid_min_similarity_predicted;
+        // The lower bar only for a whole outline: a detection touching the border may be one
+        // closed by an inner edge, whose corners lie near another object's prediction.
+        if (near && AwayFromBorder(d, o)) need = o.reid_min_similarity_predicted;
         elsewhere = dist > o.reid_reject_frac * ShortestSide(pc);
       }
       if (elsewhere) continue;
@@ -440,9 +442,31 @@ struct FrontEnd::Impl {
       (*used)[p.det] = true;
       track_matched.insert(p.id);
       const Detection& d = dets[p.det];
+      if (ReidentifyAtConfirmation(p.id, d, w)) continue;
       Vote(objects[p.id], d, w);
       if (AwayFromBorder(d, w->o)) Correct(p.id, d, w);
     }
+  }
+
+  // A candidate about to be confirmed by detection D (whole, away from the border) that is a
+  // dormant object coming back (Reidentify) becomes that object: the candidate, never reported, is
+  // dropped and the old object resumes at D under its old id. A returning object is mostly first
+  // detected at the border as it comes into view, where its outline is not trusted for
+  // re-identification. Returns whether it did.
+  bool ReidentifyAtConfirmation(int id, const Detection& d, FrameWork* w) {
+    const ObjectInfo& info = objects[id];
+    if (!w->o.reid_at_confirmation || info.confirmed || info.is_tag ||
+        info.detections + 1 < w->o.confirm_detections || !AwayFromBorder(d, w->o))
+      return false;
+    Corners corners;
+    const int old = Reidentify(w->gray, d, w->prediction, w->o, &corners);
+    if (old < 0 || !tracker.Resume(old, w->gray, corners)) return false;
+    tracker.Drop(id);
+    objects.erase(id);
+    w->tracked.erase(id);
+    ++w->result.reidentified;
+    Activate(old, corners, d, w);
+    return true;
   }
 
   // Puts live object ID's track onto detection D's corners when a corner is more than correct_px
