@@ -240,7 +240,9 @@ struct FrontEnd::Impl {
         if (pid != id) continue;
         const double dist = MeanCornerDistanceBestShift(pc, d.corners_undistorted);
         near = dist <= o.reid_gate_frac * ShortestSide(pc);
-        if (near) need = o.reid_min_similarity_predicted;
+        // The lower bar only for a whole outline: a detection touching the border may be one
+        // closed by an inner edge, whose corners lie near another object's prediction.
+        if (near && AwayFromBorder(d, o)) need = o.reid_min_similarity_predicted;
         elsewhere = dist > o.reid_reject_frac * ShortestSide(pc);
       }
       if (elsewhere) continue;
@@ -321,19 +323,38 @@ struct FrontEnd::Impl {
     return lost;
   }
 
-  bool DetectionDue(bool lost_now, const FrontEndOptions& o) const {
+  // Whether the back end predicts a dormant object wholly in view: it is coming back, and the
+  // detector runs so that it is re-identified in its first frame in view.
+  bool DormantPredictedInView(const FramePrediction& prediction) const {
+    for (const auto& [id, c] : prediction.objects) {
+      const auto it = objects.find(id);
+      if (it == objects.end() || it->second.active || !it->second.confirmed) continue;
+      bool in_view = true;
+      for (const Vec2& p : c) in_view = in_view && camera.InImage(camera.DistortPixel(p));
+      if (in_view) return true;
+    }
+    return false;
+  }
+
+  bool DetectionDue(bool lost_now, const FramePrediction& prediction,
+                    const FrontEndOptions& o) const {
     int candidates = 0, confirmed_live = 0;
     for (const auto& [id, info] : objects)
       if (info.active) (info.confirmed ? confirmed_live : candidates)++;
     return frame_index - last_detect_frame >= o.detect_every || candidates > 0 || lost_now ||
-           lost_last_frame || confirmed_live == 0;
+           lost_last_frame || confirmed_live == 0 ||
+           (o.detect_on_predicted_return && DormantPredictedInView(prediction));
   }
 
   // One more detection run that saw the object; confirms a candidate after confirm_detections.
   void Vote(ObjectInfo& info, const Detection& d, FrameWork* w) const {
     ++info.detections;
     ++info.class_votes[d.object_class];
-    if (!info.confirmed && info.detections >= w->o.confirm_detections) {
+    // A plain detection touching the border may be an outline closed by an inner edge (the
+    // object's side just out of view): it does not confirm a candidate.
+    const bool may_confirm =
+        !w->o.confirm_away_from_border || d.tag_id >= 0 || AwayFromBorder(d, w->o);
+    if (!info.confirmed && info.detections >= w->o.confirm_detections && may_confirm) {
       info.confirmed = true;
       ++w->result.started;
     }
@@ -359,6 +380,9 @@ struct FrontEnd::Impl {
       auto it = objects.find(d.tag_id);
       if (it != objects.end() && it->second.active) {
         Vote(it->second, d, w);
+        // A decoded tag's corners are the better measurement: a track more than correct_px off
+        // (resumed on an undecoded outline, say) is put onto them.
+        if (w->o.correct_tags && w->tracked.count(d.tag_id)) Correct(d.tag_id, d, w);
         continue;
       }
       const bool known = it != objects.end();
@@ -418,19 +442,46 @@ struct FrontEnd::Impl {
       (*used)[p.det] = true;
       track_matched.insert(p.id);
       const Detection& d = dets[p.det];
-      ObjectInfo& info = objects[p.id];
-      Vote(info, d, w);
-      Corners& track = w->tracked[p.id];
-      int shift = 0;
-      MeanCornerDistanceBestShift(track, d.corners_undistorted, &shift);
-      const Corners c = Shifted(d.corners_undistorted, shift);  // in the track's order
-      double worst = 0.0;
-      for (int j = 0; j < 4; ++j) worst = std::max(worst, (c[j] - track[j]).norm());
-      if (worst > w->o.correct_px && AwayFromBorder(d, w->o) && tracker.Resume(p.id, w->gray, c)) {
-        track = c;
-        info.last = c;
-        ++w->result.corrected;
-      }
+      if (ReidentifyAtConfirmation(p.id, d, w)) continue;
+      Vote(objects[p.id], d, w);
+      if (AwayFromBorder(d, w->o)) Correct(p.id, d, w);
+    }
+  }
+
+  // A candidate about to be confirmed by detection D (whole, away from the border) that is a
+  // dormant object coming back (Reidentify) becomes that object: the candidate, never reported, is
+  // dropped and the old object resumes at D under its old id. A returning object is mostly first
+  // detected at the border as it comes into view, where its outline is not trusted for
+  // re-identification. Returns whether it did.
+  bool ReidentifyAtConfirmation(int id, const Detection& d, FrameWork* w) {
+    const ObjectInfo& info = objects[id];
+    if (!w->o.reid_at_confirmation || info.confirmed || info.is_tag ||
+        info.detections + 1 < w->o.confirm_detections || !AwayFromBorder(d, w->o))
+      return false;
+    Corners corners;
+    const int old = Reidentify(w->gray, d, w->prediction, w->o, &corners);
+    if (old < 0 || !tracker.Resume(old, w->gray, corners)) return false;
+    tracker.Drop(id);
+    objects.erase(id);
+    w->tracked.erase(id);
+    ++w->result.reidentified;
+    Activate(old, corners, d, w);
+    return true;
+  }
+
+  // Puts live object ID's track onto detection D's corners when a corner is more than correct_px
+  // off (the tracker resumes from them, keeping its model).
+  void Correct(int id, const Detection& d, FrameWork* w) {
+    Corners& track = w->tracked[id];
+    int shift = 0;
+    MeanCornerDistanceBestShift(track, d.corners_undistorted, &shift);
+    const Corners c = Shifted(d.corners_undistorted, shift);  // in the track's order
+    double worst = 0.0;
+    for (int j = 0; j < 4; ++j) worst = std::max(worst, (c[j] - track[j]).norm());
+    if (worst > w->o.correct_px && tracker.Resume(id, w->gray, c)) {
+      track = c;
+      objects[id].last = c;
+      ++w->result.corrected;
     }
   }
 
@@ -443,6 +494,27 @@ struct FrontEnd::Impl {
       if (used[i]) continue;
       const Detection& d = dets[i];
       const Vec2 centre = Centroid(d.corners_undistorted);
+      // A candidate whose quad and the detection's overlap (each holds the other's centre) but do
+      // not match: the candidate was started from a wrong outline (one closed by an inner edge
+      // at the border, a side caught by a nearby edge) and its track follows that outline. The
+      // detection replaces it and keeps its votes. Not a detection at the border: it may be the one
+      // closed by an inner edge.
+      int replaced_votes = 0;
+      if (w->o.replace_candidates && d.object_class != ObjectClass::kTag && AwayFromBorder(d, w->o))
+        for (auto it = w->tracked.begin(); it != w->tracked.end(); ++it) {
+          const ObjectInfo& info = objects[it->first];
+          const double area_ratio = std::abs(SignedArea(d.corners_undistorted)) /
+                                    std::max(std::abs(SignedArea(it->second)), 1e-9);
+          if (info.confirmed || info.is_tag || !InsideConvex(it->second, centre) ||
+              !InsideConvex(d.corners_undistorted, Centroid(it->second)) || area_ratio < 0.5 ||
+              area_ratio > 2.0)
+            continue;
+          replaced_votes = info.detections;
+          tracker.Drop(it->first);
+          objects.erase(it->first);
+          w->tracked.erase(it);
+          break;
+        }
       bool on_live = false;
       for (const auto& [id, c] : w->tracked) on_live = on_live || InsideConvex(c, centre);
       if (on_live) continue;
@@ -457,6 +529,7 @@ struct FrontEnd::Impl {
         id = next_rect_id;
         if (!tracker.Start(id, w->gray, corners)) continue;
         ++next_rect_id;
+        objects[id].detections = replaced_votes;
       }
       Activate(id, corners, d, w);
     }
@@ -513,7 +586,7 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
   const bool lost_now = m.TrackAll(&w);
   w.result.times.Add("track", sw.Lap());
   std::vector<Detection> dets;
-  if (m.DetectionDue(lost_now, options_)) {
+  if (m.DetectionDue(lost_now, prediction, options_)) {
     dets = m.Detect(gray, prediction, options_);
     m.last_detect_frame = m.frame_index;
     w.result.detected = true;

@@ -141,7 +141,8 @@ void PrintTracking(const char* label, const eval::FrontendMetrics& f) {
 // The tracker's clips (assets/scenes/clip_*.yaml), from pixels in window mode, scored against the
 // ground-truth corners. Zoom/roll: a poster zooms 0.51-1.97x, banks to +-45 deg in a sideways dash,
 // leaves the view for 35 frames and returns; a plain door, a window, a tag. Measured: success
-// 549/586 (0.937), median 0.155 px, no box out of view, 5/5 returns re-identified, 0 id switches.
+// 556/586 (0.949; 549, 0.937, before the detector ran while the map predicts a return), median
+// 0.153 px, no box out of view, 5/5 returns re-identified, 0 id switches.
 // The misses: a small poster whose detected outline is 2.7 px off the truth (the detector's; the
 // tracker follows it) and the tag re-acquired a few frames late after fast motion.
 TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
@@ -150,7 +151,7 @@ TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
   ASSERT_TRUE(r.metrics.frontend && r.metrics.frontend->success_rate);
   const eval::FrontendMetrics& f = *r.metrics.frontend;
   PrintTracking("zoom/roll", f);
-  EXPECT_GE(*f.success_rate, 0.90);
+  EXPECT_GE(*f.success_rate, 0.94);
   EXPECT_LE(f.corner_err_px.median, 0.3);
   EXPECT_LE(f.boxes_out_of_view, 2u);
   EXPECT_GE(f.returns, 4u);
@@ -160,8 +161,9 @@ TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
 }
 
 // Motion blur (20 ms shutter: median 6 px, p90 17 px of smear on the poster). Measured: success
-// 276/380 (0.726), median 0.29 px, no box out of view, 3/3 returns re-identified, 2 id switches (a
-// blurred poster whose appearance fell below the re-identification bar restarts as a new object);
+// 274/380 (0.721), median 0.29 px, no box out of view, 3/3 returns re-identified, 0 id switches (2
+// before re-identification at confirmation: a blurred poster whose appearance fell below the
+// re-identification bar restarted as a new object);
 // the misses are the blurred frames, where the corners found on the smeared edges lie 2-6 px from
 // the mid-exposure truth.
 TEST(PixelsEndToEnd, TrackingClipMotionBlur) {
@@ -170,11 +172,11 @@ TEST(PixelsEndToEnd, TrackingClipMotionBlur) {
   ASSERT_TRUE(r.metrics.frontend && r.metrics.frontend->success_rate);
   const eval::FrontendMetrics& f = *r.metrics.frontend;
   PrintTracking("blur", f);
-  EXPECT_GE(*f.success_rate, 0.65);
+  EXPECT_GE(*f.success_rate, 0.70);
   EXPECT_LE(f.corner_err_px.median, 0.5);
   EXPECT_EQ(f.boxes_out_of_view, 0u);
   EXPECT_EQ(f.reidentified, f.returns);
-  EXPECT_LE(f.id_switches, 2);
+  EXPECT_EQ(f.id_switches, 0);
 }
 
 TEST(PixelsEndToEnd, BatchFromPixelsMapsTheRoom) {
@@ -182,13 +184,13 @@ TEST(PixelsEndToEnd, BatchFromPixelsMapsTheRoom) {
                                      test::ScratchDir() / "run");
   ASSERT_TRUE(r.metrics.trajectory && r.metrics.objects && r.metrics.frontend);
   Print("rect, batch", r);
-  // Measured: ATE 1.2 cm, 5 of the 12 objects matched in the map (the others are never fully in
+  // Measured: ATE 1.1 cm, 5 of the 12 objects matched in the map (the others are never fully in
   // view long enough in these 10 s, as with gt-corners), width error mean 0.47 cm (max 0.84),
-  // front end recall 0.963, precision 1.000, corner median 0.090 px, 0 id switches (ATE 3.5 cm
+  // front end recall 0.969, precision 1.000, corner median 0.090 px, 0 id switches (ATE 3.5 cm
   // and width error 2.2 cm before the back end's predictions gated re-identification).
   const auto& f = *r.metrics.frontend;
-  EXPECT_GE(*f.recall, 0.93);
-  EXPECT_GE(*f.precision, 0.97);
+  EXPECT_GE(*f.recall, 0.95);
+  EXPECT_GE(*f.precision, 0.99);
   EXPECT_LE(f.corner_err_px.median, 0.2);
   EXPECT_EQ(f.id_switches, 0);
   EXPECT_LT(r.metrics.trajectory->ate.rmse, 0.03);

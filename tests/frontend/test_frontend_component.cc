@@ -136,6 +136,40 @@ TEST(FrontEndComponent, ReidentificationFollowsTheMapsPrediction) {
   })) << "not in the map";
 }
 
+// While the map predicts a dormant object wholly in view, the detector runs on every frame (not
+// only every detect_every), so that the object is re-identified in its first frame back, whatever
+// the phase of the detection schedule (returns in frames 25, 26 and 27 tried). Without that, some
+// return waits for the next scheduled run.
+TEST(FrontEndComponent, DetectsWhileTheMapPredictsAReturn) {
+  for (const bool on : {true, false}) {
+    int late = 0;
+    for (int back = 25; back < 28; ++back) {
+      FrontEndOptions options;
+      options.detect_on_predicted_return = on;
+      FrontEnd fe(Camera(), options);
+      std::vector<Corners> truth;
+      int window = -1, first_back = -1;
+      for (int k = 0; k < 40 && first_back < 0; ++k) {
+        const Frame f = MakeFrame(k, 15, back, &truth);
+        FramePrediction p;
+        if (window >= 0 && truth.size() > 1) p.objects.emplace_back(window, truth[1]);
+        const FrontEndResult r = fe.Process(f, p);
+        if (k >= 8 && k < 15) window = IdAt(r.observations, truth[1]);
+        if (k >= back && window >= 0 && IdAt(r.observations, truth[1]) == window) first_back = k;
+      }
+      ASSERT_GE(window, options.first_rect_id);
+      ASSERT_GE(first_back, back) << "not re-identified";
+      if (on) {
+        EXPECT_EQ(first_back, back) << "re-identified in its first frame back";
+      }
+      late += first_back > back ? 1 : 0;
+    }
+    if (!on) {
+      EXPECT_GT(late, 0) << "the clip does not tell the option apart";
+    }
+  }
+}
+
 TEST(FrontEndComponent, RejectsWrongImagesWithAClearError) {
   FrontEnd fe(Camera());
   Frame f;

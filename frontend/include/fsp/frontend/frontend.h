@@ -55,6 +55,23 @@ struct FrontEndOptions {
   // ...within this many frames of its start; a candidate still unconfirmed then is forgotten (a
   // stray detection, and while a candidate waits the detector runs on every frame) [frames].
   int confirm_within_frames = 10;
+  // A candidate whose quad and an unmatched detection's overlap (each holds the other's centre,
+  // areas within 2x) but are too far apart to match is replaced by the detection (which keeps its
+  // votes and may re-identify a dormant object): the candidate was started from a wrong outline
+  // (closed by an inner edge at the image border) that its track keeps following.
+  bool replace_candidates = true;
+  // A plain detection with a corner within `border_margin_px` of the image border does not confirm
+  // a candidate (it may be an outline closed by an inner edge, the object's side just out of view);
+  // the next one away from the border does.
+  bool confirm_away_from_border = true;
+  // A candidate about to be confirmed is first compared with the dormant objects (as an unmatched
+  // detection is): one that is a returning object takes its old id instead of a new one. A
+  // returning object is mostly first detected at the border as it comes into view, where its
+  // outline is not trusted for re-identification.
+  bool reid_at_confirmation = true;
+  // The detector also runs on every frame where the back end predicts a dormant object wholly in
+  // view, so that a returning object is re-identified in its first frame back in view.
+  bool detect_on_predicted_return = true;
   // A detection matches a live track when their mean corner distance (best cyclic shift) is below
   // this fraction of the track's shortest side (at least 3 px). Larger tolerates worse tracks but
   // can steal a neighbour's detection.
@@ -68,13 +85,13 @@ struct FrontEndOptions {
   double reid_min_margin = 0.1;
   // ...and when the back end predicts the dormant object in view: the largest mean corner distance
   // from that prediction [fraction of the predicted quad's shortest side] for a match on geometry,
-  // which then needs `reid_min_similarity_predicted`. Measured on the default room from pixels
-  // (window with the global step, seed 1): 0.8 (the plain bar) re-identifies 42/54 returns, 15 id
-  // switches, ATE 0.81 cm; 0.6: 49/54, 7 switches, ATE 1.08 cm; 0.4: 49/54, 7, 1.13 cm. But 0.6
-  // makes one wrong identity in test_apps_pixels' batch run (precision 1.000 -> 0.997, width error
-  // 0.47 -> 1.9 cm: batch trusts every association), so the default stays 0.8. (Before the global
-  // step a lower bar was worse, 0.3: ATE 36 vs 27 cm: the drifting estimate put a look-alike within
-  // the gate.)
+  // which then needs `reid_min_similarity_predicted` (only for a detection away from the border:
+  // one touching it may be an outline closed by an inner edge, and needs the plain bar). Measured
+  // on the default room from pixels (window, seed 1, with reid_at_confirmation): 0.8 re-identifies
+  // 49/54 returns, 7 id switches, ATE 0.85 cm; 0.7: 52/54, 4 switches, but ATE 1.02 cm (every
+  // identity right: the window estimator takes the extra loop closures less well). Before the
+  // border rule, 0.7 (and 0.6) made one wrong identity in test_apps_pixels' batch run (a window's
+  // outline closed at the border re-identified as its look-alike: width error 0.47 -> 1.9 cm).
   double reid_gate_frac = 0.5;
   double reid_min_similarity_predicted = 0.8;
   // ...and a dormant object whose prediction lies further than this from the detection [fraction of
@@ -92,6 +109,9 @@ struct FrontEndOptions {
   // ...unless a corner of the detection lies within this of the image border [px]: there the
   // detector may have closed the quad with an inner edge (the object's side just out of view).
   double border_margin_px = 8.0;
+  // A decoded AprilTag matched to its live track puts the track onto the tag's corners the same way
+  // (more than correct_px off; the decoder's corners are exact, the border does not matter).
+  bool correct_tags = true;
   // DetectorKind::kRect: the whole frame is also scanned for AprilTags every this many frames (at a
   // frame where the rectangle detector runs) [frames]: tags too small for the rectangle detector's
   // minimum side are found this way. 0: never (tags then come only from tag-like rectangles).
