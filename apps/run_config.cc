@@ -151,6 +151,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.confirm_away_from_border", &f.confirm_away_from_border, kAny},
       {"frontend.reid_at_confirmation", &f.reid_at_confirmation, kAny},
       {"frontend.detect_on_predicted_return", &f.detect_on_predicted_return, kAny},
+      {"frontend.detect_skip_tracked_frac", &f.detect_skip_tracked_frac, kNonNegative},
       {"frontend.match_gate_frac", &f.match_gate_frac, kNonNegative},
       {"frontend.reid_min_similarity", &f.reid_min_similarity, kNonNegative},
       {"frontend.reid_min_margin", &f.reid_min_margin, kNonNegative},

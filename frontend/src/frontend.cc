@@ -173,10 +173,21 @@ struct FrontEnd::Impl {
   }
 
   std::vector<Detection> Detect(const cv::Mat& gray, const FramePrediction& prediction,
-                                const FrontEndOptions& o) {
+                                const std::map<int, Corners>& tracked, const FrontEndOptions& o) {
     if (o.detector == DetectorKind::kAprilTag) return tags.Detect(gray, &camera).detections;
     const Vec3* gravity = prediction.gravity_C ? &*prediction.gravity_C : nullptr;
-    std::vector<Detection> dets = rect.Detect(gray, &camera, gravity).detections;
+    // The insides of the confirmed objects tracked in this frame, in image pixels.
+    std::vector<Corners> skip;
+    if (o.detect_skip_tracked_frac > 0.0)
+      for (const auto& [id, und] : tracked) {
+        if (!objects.at(id).confirmed) continue;
+        Corners px;
+        for (int i = 0; i < 4; ++i) px[i] = camera.DistortPixel(und[i]);
+        if (!IsConvex(px)) continue;
+        skip.push_back(
+            MovedFromCentroid(px, -std::max(4.0, o.detect_skip_tracked_frac * ShortestSide(px))));
+      }
+    std::vector<Detection> dets = rect.Detect(gray, &camera, gravity, &skip).detections;
     DecodeTags(gray, o, &dets);
     if (o.tag_scan_every > 0 && frame_index - last_tag_scan >= o.tag_scan_every) {
       last_tag_scan = frame_index;
@@ -587,7 +598,7 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
   w.result.times.Add("track", sw.Lap());
   std::vector<Detection> dets;
   if (m.DetectionDue(lost_now, prediction, options_)) {
-    dets = m.Detect(gray, prediction, options_);
+    dets = m.Detect(gray, prediction, w.tracked, options_);
     m.last_detect_frame = m.frame_index;
     w.result.detected = true;
     w.result.detections = static_cast<int>(dets.size());

@@ -99,7 +99,7 @@ namespace {
 // image the refinement read.
 RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::Mat& gray,
                                  const PinholeRadtan* camera, const Vec3* gravity_C,
-                                 cv::Mat* smooth_out) {
+                                 const std::vector<Corners>* ignore, cv::Mat* smooth_out) {
   namespace ri = rect_internal;
   RectDetectorOptions uncalibrated = options;
   if (!camera) {
@@ -117,6 +117,17 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
 
   // 1. edges: smoothing, Sobel, Canny with data-driven thresholds.
   ri::EdgeImages edges = ri::DetectEdges(gray, o);
+  if (ignore && !ignore->empty()) {
+    cv::Mat mask = cv::Mat::zeros(edges.edges.size(), CV_8UC1);
+    for (const Corners& q : *ignore) {
+      std::vector<cv::Point> poly;
+      for (const Vec2& c : q)
+        poly.emplace_back(static_cast<int>(std::lround(c.x())),
+                          static_cast<int>(std::lround(c.y())));
+      cv::fillConvexPoly(mask, poly, 255);
+    }
+    edges.edges.setTo(0, mask);
+  }
   res.canny_low = edges.canny_low;
   res.canny_high = edges.canny_high;
   res.times.Add("edges", sw.Lap());
@@ -231,13 +242,14 @@ std::array<int, 4> SidePolarity(const cv::Mat& smooth, const Corners& c) {
 }  // namespace
 
 RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadtan* camera,
-                                          const Vec3* gravity_C) const {
+                                          const Vec3* gravity_C,
+                                          const std::vector<Corners>* ignore) const {
   FSP_CHECK(gray.type() == CV_8UC1 && !gray.empty());
   if (camera) FSP_CHECK(camera->width == gray.cols && camera->height == gray.rows);
   const Options& o = options_;
   const int long_side = std::max(gray.cols, gray.rows);
   if (o.detect_long_side <= 0 || long_side < 2 * o.detect_long_side)
-    return DetectLevel(o, gray, camera, gravity_C, nullptr);
+    return DetectLevel(o, gray, camera, gravity_C, ignore, nullptr);
 
   // Detection level: area-averaged to `detect_long_side`, the options unchanged (their pixel
   // values are level pixels: edge blur, search widths, slacks).
@@ -254,7 +266,14 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   if (camera) level_cam = ScaledCamera(*camera, level.cols, level.rows, s);
   const double t_pyramid = sw.Lap();
   cv::Mat level_smooth;
-  Result res = DetectLevel(o, level, level_cam ? &*level_cam : nullptr, gravity_C, &level_smooth);
+  std::vector<Corners> level_ignore;  // the ignored quads in level pixels
+  if (ignore)
+    for (Corners q : *ignore) {
+      for (Vec2& c : q) c = (c + Vec2(0.5, 0.5)) / s - Vec2(0.5, 0.5);
+      level_ignore.push_back(q);
+    }
+  Result res = DetectLevel(o, level, level_cam ? &*level_cam : nullptr, gravity_C,
+                           ignore ? &level_ignore : nullptr, &level_smooth);
   sw.Lap();
 
   // Full-resolution refinement of each detection's corners: the smoothed image only along the

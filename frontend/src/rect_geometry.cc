@@ -74,13 +74,18 @@ bool InsideConvex(const Corners& c, const Vec2& p) {
   return pos == 4 || neg == 4;
 }
 
-bool ContainsWithMargin(const Corners& outer, const Corners& inner, double margin_px) {
-  const Vec2 centre = 0.25 * (outer[0] + outer[1] + outer[2] + outer[3]);
-  Corners grown;
+Corners MovedFromCentroid(const Corners& c, double px) {
+  const Vec2 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+  Corners moved;
   for (int i = 0; i < 4; ++i) {
-    const Vec2 r = outer[i] - centre;
-    grown[i] = outer[i] + margin_px * r / std::max(r.norm(), 1e-9);
+    const Vec2 r = c[i] - centre;
+    moved[i] = c[i] + px * r / std::max(r.norm(), 1e-9);
   }
+  return moved;
+}
+
+bool ContainsWithMargin(const Corners& outer, const Corners& inner, double margin_px) {
+  const Corners grown = MovedFromCentroid(outer, margin_px);
   for (const Vec2& p : inner)
     if (!InsideConvex(grown, p)) return false;
   return true;

@@ -154,6 +154,38 @@ TEST(RectDetector, DebugOutputOnlyWhenAsked) {
   }
 }
 
+// A poster with printed rectangles: the print gives hypotheses of its own (each shape, and shapes
+// with the poster's sides). With the poster's inside ignored (what the front end does for the
+// objects it tracks) the outline is still found at the same corners, the print costs no
+// hypotheses, and nothing is reported inside.
+TEST(RectDetector, IgnoredInsideCostsNoHypothesesAndKeepsTheOutline) {
+  const Corners outer = {Vec2(200.5, 380.5), Vec2(440.5, 380.5), Vec2(440.5, 120.5),
+                         Vec2(200.5, 120.5)};
+  const auto box = [](double x0, double y0, double w, double h) {
+    return Corners{Vec2(x0, y0 + h), Vec2(x0 + w, y0 + h), Vec2(x0 + w, y0), Vec2(x0, y0)};
+  };
+  const std::vector<test::SyntheticRect> rects = {{outer, 225},
+                                                  {box(250.5, 170.5, 70, 60), 40},
+                                                  {box(345.5, 160.5, 55, 90), 70},
+                                                  {box(240.5, 280.5, 150, 55), 30}};
+  const cv::Mat image = test::RenderQuads(640, 480, rects, 0.8, 2.0, 3, 90);
+  RectDetector det;
+  const RectDetector::Result all = det.Detect(image);
+  const std::vector<Corners> ignore = {MovedFromCentroid(outer, -0.1 * ShortestSide(outer))};
+  const RectDetector::Result skipped = det.Detect(image, nullptr, nullptr, &ignore);
+  std::printf("[ignore] hypotheses %d -> %d, detections %zu -> %zu\n", all.hypotheses,
+              skipped.hypotheses, all.detections.size(), skipped.detections.size());
+  EXPECT_GE(all.hypotheses, 4);      // the outline and the three printed shapes
+  EXPECT_EQ(skipped.hypotheses, 1);  // the outline alone
+  ASSERT_EQ(skipped.detections.size(), 1u);
+  EXPECT_LT(CornerDistanceBestShift(skipped.detections[0].corners_px, outer), 0.3);
+  bool outline_without_ignore = false;
+  for (const Detection& d : all.detections)
+    outline_without_ignore =
+        outline_without_ignore || CornerDistanceBestShift(d.corners_px, outer) < 0.3;
+  EXPECT_TRUE(outline_without_ignore);
+}
+
 TEST(RectDetector, OptionsCheck) {
   RectDetector::Options o;
   std::string why;

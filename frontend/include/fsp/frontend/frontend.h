@@ -72,6 +72,11 @@ struct FrontEndOptions {
   // The detector also runs on every frame where the back end predicts a dormant object wholly in
   // view, so that a returning object is re-identified in its first frame back in view.
   bool detect_on_predicted_return = true;
+  // The detector does not search inside the confirmed objects being tracked: the inside of each
+  // (its corners moved towards the centre by this fraction of its shortest side, at least 4 px)
+  // is masked out of its edge image, so a window's panes, a door's panels and a poster's print
+  // cost no hypotheses while the outline itself is still found. 0 searches everywhere.
+  double detect_skip_tracked_frac = 0.1;
   // A detection matches a live track when their mean corner distance (best cyclic shift) is below
   // this fraction of the track's shortest side (at least 3 px). Larger tolerates worse tracks but
   // can steal a neighbour's detection.

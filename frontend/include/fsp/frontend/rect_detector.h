@@ -342,8 +342,12 @@ class RectDetector {
   // and the distortion: edge points are undistorted so sides are straight lines; its size must
   // match the image. `gravity_C` (optional) is the gravity direction in the camera frame (any
   // length) used to order the corners (bottom = along gravity); without it the image's +v is down.
+  // `ignore` (optional): convex quadrilaterals in image pixels whose edges are dropped before
+  // anything is built from them (the front end passes the insides of the objects it tracks, so
+  // their panes, panels and printed shapes cost no hypotheses while their outlines are found).
   Result Detect(const cv::Mat& gray, const PinholeRadtan* camera = nullptr,
-                const Vec3* gravity_C = nullptr) const;
+                const Vec3* gravity_C = nullptr,
+                const std::vector<Corners>* ignore = nullptr) const;
 
   const Options& options() const { return options_; }
 

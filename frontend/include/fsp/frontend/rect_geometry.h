@@ -38,6 +38,8 @@ double SignedArea(const Corners& c);
 bool IsConvex(const Corners& c);
 // True when p is inside the convex quad (any orientation).
 bool InsideConvex(const Corners& c, const Vec2& p);
+// Each corner of C moved PX away from the centroid (negative: towards it, a smaller quad).
+Corners MovedFromCentroid(const Corners& c, double px);
 // True when every corner of `inner` is inside `outer` grown by `margin_px` (each corner moved that
 // far away from the centroid): "inside" that tolerates shared sides and corners.
 bool ContainsWithMargin(const Corners& outer, const Corners& inner, double margin_px);
