@@ -67,14 +67,16 @@ void MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double li
     lo = std::min(lo, t);
     hi = std::max(hi, t);
   }
-  out->push_back(MakeSeg(p0 + lo * dir, p0 + hi * dir));
+  Seg merged = MakeSeg(p0 + lo * dir, p0 + hi * dir);
+  for (int i : g) merged.mixed = merged.mixed || in[i].mixed || in[i].dir.dot(dir) < 0.0;
+  out->push_back(std::move(merged));
 }
 
 }  // namespace
 
 // Merges collinear pieces (union of compatible pairs, then one TLS line through all endpoints).
 std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, double line_px,
-                                double gap_px) {
+                                double gap_px, bool any_polarity) {
   const int n = static_cast<int>(in.size());
   std::vector<int> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
@@ -82,16 +84,22 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
+  // Directions as angles in [0, 2π) (with `any_polarity`, of the undirected line: [0, π)).
+  const double period = any_polarity ? M_PI : 2 * M_PI;
   std::vector<double> theta(n);
   for (int i = 0; i < n; ++i)
-    theta[i] = std::atan2(in[i].dir.y(), in[i].dir.x()) + M_PI;  // [0, 2π]
+    theta[i] = std::fmod(std::atan2(in[i].dir.y(), in[i].dir.x()) + 2 * M_PI, period);
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(), [&](int i, int j) { return theta[i] < theta[j]; });
   const double tol = angle_deg * M_PI / 180.0;
   const double cos_tol = std::cos(tol);
+  auto aligned = [&](const Seg& s, const Seg& t) {
+    const double c = s.dir.dot(t.dir);
+    return (any_polarity ? std::abs(c) : c) >= cos_tol;
+  };
   auto compatible = [&](const Seg& s, const Seg& t) {
-    if (s.dir.dot(t.dir) < cos_tol) return false;  // same polarity only (see orientation above)
+    if (!aligned(s, t)) return false;  // same polarity only unless any_polarity
     const Seg& lng = s.len >= t.len ? s : t;
     const Seg& sht = s.len >= t.len ? t : s;
     const Line l = LineOf(lng);
@@ -105,7 +113,7 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
   // A smoothly bending edge (bent paper, residual distortion) splits into pieces that are not
   // collinear within line_px but continue each other: the end of one touches the start of the next.
   auto continues = [&](const Seg& s, const Seg& t) {
-    if (s.dir.dot(t.dir) < cos_tol) return false;
+    if (any_polarity || s.dir.dot(t.dir) < cos_tol) return false;
     return (s.b - t.a).squaredNorm() <= line_px * line_px ||
            (t.b - s.a).squaredNorm() <= line_px * line_px;
   };
@@ -116,7 +124,7 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
       if (ok == n) ok = 0;  // (oi + k) mod n without a division per step
       const int j = order[ok];
       double d = theta[j] - theta[i];
-      if (d < 0) d += 2 * M_PI;
+      if (d < 0) d += period;
       if (d > tol) break;
       if (compatible(in[i], in[j]) || continues(in[i], in[j])) parent[find(i)] = find(j);
     }
@@ -226,6 +234,23 @@ std::vector<Seg> BuildSegments(const std::vector<std::pair<Vec2, Vec2>>& pieces,
     segs.push_back(MakeSeg(a, b));
   }
   segs = MergeCollinear(segs, o.merge_angle_deg, o.merge_line_px, o.merge_gap_frac * diag);
+  if (o.bridge_gap_frac > 0.0) {
+    // Bridged sides (grouping only): collinear segments of either polarity with gaps of up to
+    // `bridge_gap_frac` of the diagonal, appended as segments of their own when they join
+    // pieces that the merge above left apart (a side whose background changes along it, a side
+    // broken by clutter crossing it); the pieces stay as they are.
+    const size_t n = segs.size();
+    for (Seg& b :
+         MergeCollinear(segs, o.merge_angle_deg, o.merge_line_px, o.bridge_gap_frac * diag, true)) {
+      if (b.len < min_seg) continue;
+      bool known = false;
+      for (size_t i = 0; i < n && !known; ++i)
+        known = std::abs(segs[i].len - b.len) < 1.0 &&
+                std::min((segs[i].a - b.a).squaredNorm() + (segs[i].b - b.b).squaredNorm(),
+                         (segs[i].a - b.b).squaredNorm() + (segs[i].b - b.a).squaredNorm()) < 1.0;
+      if (!known) segs.push_back(std::move(b));
+    }
+  }
   segs.erase(
       std::remove_if(segs.begin(), segs.end(), [&](const Seg& sg) { return sg.len < min_seg; }),
       segs.end());
