@@ -255,9 +255,10 @@ std::vector<Mat3> CandidateIntrinsics(const RectDetectorOptions& o, int cols, in
 // line, at most `gap_px` apart along it) merged into one segment each, through union of
 // compatible pairs; pieces that continue each other end to start also join. Only pieces of the
 // same polarity, unless `any_polarity` (then the merged segment is `mixed` when its pieces'
-// polarities differ; continuations are not joined).
+// polarities differ; continuations are not joined). With `only_joined` only the segments merged
+// from two or more pieces are returned.
 std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, double line_px,
-                                double gap_px, bool any_polarity = false);
+                                double gap_px, bool any_polarity = false, bool only_joined = false);
 std::vector<Seg> CurvedChains(const std::vector<Seg>& segs, double touch_px, double step_deg,
                               double total_deg, double min_len);
 

@@ -35,7 +35,8 @@ namespace {
 // One group of compatible pieces `g` (indices into `in`) becomes one segment: the length-weighted
 // TLS line through all their endpoints, spanning their projections onto it. A group that bends
 // too far from that line (an arc of continuations) stays as its pieces.
-void MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double line_px,
+// Returns whether the group became one segment.
+bool MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double line_px,
                 std::vector<Seg>* out) {
   std::vector<Vec2> pts;
   std::vector<double> w;
@@ -49,7 +50,7 @@ void MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double li
     w.push_back(in[i].len);
   }
   Line l;
-  if (!FitLineTls(pts, w, idx, &l)) return;
+  if (!FitLineTls(pts, w, idx, &l)) return false;
   Vec2 dir(l.n.y(), -l.n.x());
   if (dir.dot(in[g[0]].dir) < 0.0) dir = -dir;  // keep the polarity orientation
   const Vec2 p0 = l.c * l.n;
@@ -59,7 +60,7 @@ void MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double li
   for (int i : g) extent += in[i].len;
   if (worst > std::max(line_px, 0.01 * extent)) {
     for (int i : g) out->push_back(in[i]);
-    return;
+    return false;
   }
   double lo = 1e300, hi = -1e300;
   for (const auto& p : pts) {
@@ -70,13 +71,14 @@ void MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double li
   Seg merged = MakeSeg(p0 + lo * dir, p0 + hi * dir);
   for (int i : g) merged.mixed = merged.mixed || in[i].mixed || in[i].dir.dot(dir) < 0.0;
   out->push_back(std::move(merged));
+  return true;
 }
 
 }  // namespace
 
 // Merges collinear pieces (union of compatible pairs, then one TLS line through all endpoints).
 std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, double line_px,
-                                double gap_px, bool any_polarity) {
+                                double gap_px, bool any_polarity, bool only_joined) {
   const int n = static_cast<int>(in.size());
   std::vector<int> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
@@ -134,6 +136,11 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
   std::vector<Seg> out;
   for (const auto& g : groups) {
     if (g.empty()) continue;
+    if (only_joined) {
+      std::vector<Seg> joined;
+      if (g.size() > 1 && MergeGroup(in, g, line_px, &joined)) out.push_back(std::move(joined[0]));
+      continue;
+    }
     if (g.size() == 1) {
       out.push_back(in[g[0]]);
       continue;
@@ -234,26 +241,18 @@ std::vector<Seg> BuildSegments(const std::vector<std::pair<Vec2, Vec2>>& pieces,
     segs.push_back(MakeSeg(a, b));
   }
   segs = MergeCollinear(segs, o.merge_angle_deg, o.merge_line_px, o.merge_gap_frac * diag);
-  if (o.bridge_gap_frac > 0.0) {
-    // Bridged sides (grouping only): collinear segments of either polarity with gaps of up to
-    // `bridge_gap_frac` of the diagonal, appended as segments of their own when they join
-    // pieces that the merge above left apart (a side whose background changes along it, a side
-    // broken by clutter crossing it); the pieces stay as they are.
-    const size_t n = segs.size();
-    for (Seg& b :
-         MergeCollinear(segs, o.merge_angle_deg, o.merge_line_px, o.bridge_gap_frac * diag, true)) {
-      if (b.len < min_seg) continue;
-      bool known = false;
-      for (size_t i = 0; i < n && !known; ++i)
-        known = std::abs(segs[i].len - b.len) < 1.0 &&
-                std::min((segs[i].a - b.a).squaredNorm() + (segs[i].b - b.b).squaredNorm(),
-                         (segs[i].a - b.b).squaredNorm() + (segs[i].b - b.a).squaredNorm()) < 1.0;
-      if (!known) segs.push_back(std::move(b));
-    }
-  }
   segs.erase(
       std::remove_if(segs.begin(), segs.end(), [&](const Seg& sg) { return sg.len < min_seg; }),
       segs.end());
+  if (o.bridge_gap_frac > 0.0) {
+    // Bridged sides (grouping only): segments of either polarity on one line with gaps of up to
+    // `bridge_gap_frac` of the diagonal, appended as segments of their own when at least
+    // `bridge_min_frac` of the diagonal long (a side whose background changes along it, a side
+    // broken by clutter crossing it); the pieces stay as they are.
+    for (Seg& b : MergeCollinear(segs, o.merge_angle_deg, o.merge_line_px, o.bridge_gap_frac * diag,
+                                 true, true))
+      if (b.len >= o.bridge_min_frac * diag) segs.push_back(std::move(b));
+  }
   if (o.curved_step_deg > 0.0)
     for (Seg& c : CurvedChains(segs, o.merge_line_px, o.curved_step_deg, o.curved_total_deg,
                                o.curved_min_frac * diag))

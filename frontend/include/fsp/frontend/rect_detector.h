@@ -105,6 +105,9 @@ struct RectDetectorOptions {
   // more and one extra rectangle more, and the sudoku page's top side closed on a line of text).
   double bridge_gap_frac = 0.08;
   double uncalibrated_bridge_gap_frac = 0.0;
+  // Shortest bridged side kept [fraction of the image diagonal]: each one costs grouping time,
+  // and short sides are seldom broken.
+  double bridge_min_frac = 0.1;
   // Slowly bending edges (curled paper): straight pieces that continue each other (the end of one
   // at the start of the next, same polarity) with directions within `curved_step_deg` of each
   // other also form one curved segment when their first and last directions differ by at most
