@@ -30,7 +30,8 @@ bool RectDetectorOptions::Check(std::string* why) const {
   positive(merge_angle_deg, "merge_angle_deg");
   positive(merge_line_px, "merge_line_px");
   if (merge_gap_frac < 0.0) os << "merge_gap_frac must be >= 0; ";
-  if (bridge_gap_frac < 0.0 || uncalibrated_bridge_gap_frac < 0.0 || bridge_min_frac < 0.0)
+  if (bridge_gap_frac < 0.0 || uncalibrated_bridge_gap_frac < 0.0 || bridge_min_frac < 0.0 ||
+      bridge_min_piece_frac < 0.0)
     os << "bridge_gap_frac must be >= 0; ";
   positive(min_side_frac, "min_side_frac");
   if (!(min_corner_angle_deg > 0.0 && min_corner_angle_deg < 90.0))

@@ -246,11 +246,15 @@ std::vector<Seg> BuildSegments(const std::vector<std::pair<Vec2, Vec2>>& pieces,
       segs.end());
   if (o.bridge_gap_frac > 0.0) {
     // Bridged sides (grouping only): segments of either polarity on one line with gaps of up to
-    // `bridge_gap_frac` of the diagonal, appended as segments of their own when at least
+    // `bridge_gap_frac` of the diagonal, from segments of at least `bridge_min_piece_frac` of it,
+    // appended as segments of their own when at least
     // `bridge_min_frac` of the diagonal long (a side whose background changes along it, a side
     // broken by clutter crossing it); the pieces stay as they are.
-    for (Seg& b : MergeCollinear(segs, o.merge_angle_deg, o.merge_line_px, o.bridge_gap_frac * diag,
-                                 true, true))
+    std::vector<Seg> long_segs;
+    for (const Seg& sg : segs)
+      if (sg.len >= o.bridge_min_piece_frac * diag) long_segs.push_back(sg);
+    for (Seg& b : MergeCollinear(long_segs, o.merge_angle_deg, o.merge_line_px,
+                                 o.bridge_gap_frac * diag, true, true))
       if (b.len >= o.bridge_min_frac * diag) segs.push_back(std::move(b));
   }
   if (o.curved_step_deg > 0.0)

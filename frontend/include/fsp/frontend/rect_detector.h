@@ -108,6 +108,10 @@ struct RectDetectorOptions {
   // Shortest bridged side kept [fraction of the image diagonal]: each one costs grouping time,
   // and short sides are seldom broken.
   double bridge_min_frac = 0.1;
+  // Shortest segment a bridged side is made of [fraction of the image diagonal]: the pieces of
+  // motion-blurred edges stay apart (bridging them in the rendered blur clip found the blurred
+  // poster in more frames, whose tracks then restarted: 5 id switches against 2).
+  double bridge_min_piece_frac = 0.06;
   // Slowly bending edges (curled paper): straight pieces that continue each other (the end of one
   // at the start of the next, same polarity) with directions within `curved_step_deg` of each
   // other also form one curved segment when their first and last directions differ by at most
