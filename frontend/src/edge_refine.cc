@@ -273,9 +273,10 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
     // The segment's polarity fixes the side's: only edges of that polarity are searched (a thin
     // line's other edge, a groove's, is not the side). Segments are brighter towards (dy, -dx)
     // (see the segments stage), the opposite of n = (-u.y, u.x) here when they run along u.
-    const int want_sign = !sg_side                  ? side_want[side]
-                          : o.polarity_from_segment ? (sg_side->dir.dot(u) > 0.0 ? -1 : 1)
-                                                    : 0;
+    const int want_sign = !sg_side ? side_want[side]
+                          : o.polarity_from_segment && !sg_side->mixed
+                              ? (sg_side->dir.dot(u) > 0.0 ? -1 : 1)
+                              : 0;
     if (!SampleSide(probe, sg_side, P, Q, want_sign, min_gradient, &s)) return false;
     (*side_edges)[side] = SideEdge();
     if (!FitSide(probe, &s, P, Q, u, rng, &start_line[side], &end_line[side], &(*side_edges)[side],

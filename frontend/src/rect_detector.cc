@@ -30,6 +30,9 @@ bool RectDetectorOptions::Check(std::string* why) const {
   positive(merge_angle_deg, "merge_angle_deg");
   positive(merge_line_px, "merge_line_px");
   if (merge_gap_frac < 0.0) os << "merge_gap_frac must be >= 0; ";
+  if (bridge_gap_frac < 0.0 || uncalibrated_bridge_gap_frac < 0.0 || bridge_min_frac < 0.0 ||
+      bridge_min_piece_frac < 0.0)
+    os << "bridge_gap_frac must be >= 0; ";
   positive(min_side_frac, "min_side_frac");
   if (!(min_corner_angle_deg > 0.0 && min_corner_angle_deg < 90.0))
     os << "min_corner_angle_deg must be in (0, 90); ";
@@ -51,6 +54,7 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (!(continuation_start_px >= 0.0)) os << "continuation_start_px must be >= 0; ";
   positive(continuation_frac, "continuation_frac");
   if (!(continuation_step_px >= 0.0)) os << "continuation_step_px must be >= 0; ";
+  if (!(any_corner_min_side_frac >= 0.0)) os << "any_corner_min_side_frac must be >= 0; ";
   if (!(max_abs_cos > 0.0 && max_abs_cos <= 1.0)) os << "max_abs_cos must be in (0, 1]; ";
   if (!(max_aspect >= 1.0)) os << "max_aspect must be >= 1; ";
   if (!(door_leaf_min_area_frac >= 0.0 && door_leaf_min_area_frac <= 1.0))
@@ -68,6 +72,7 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (!(focal_prior_min > 0.0 && focal_prior_max >= focal_prior_min))
     os << "focal_prior_min must be positive and <= focal_prior_max; ";
   if (reach_failures_allowed < 0 || uncalibrated_reach_failures_allowed < 0 ||
+      reach_failures_any_corner < 0 || uncalibrated_reach_failures_any_corner < 0 ||
       door_reach_failures_allowed < 0 || uncalibrated_door_reach_failures_allowed < 0)
     os << "reach_failures_allowed must be >= 0; ";
   if (!(uncalibrated_container_outside_frac >= 0.0))
@@ -105,6 +110,9 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   if (!camera) {
     uncalibrated.container_outside_frac = options.uncalibrated_container_outside_frac;
     uncalibrated.reach_failures_allowed = options.uncalibrated_reach_failures_allowed;
+    uncalibrated.reach_failures_any_corner = options.uncalibrated_reach_failures_any_corner;
+    uncalibrated.bridge_gap_frac = options.uncalibrated_bridge_gap_frac;
+    uncalibrated.reach_either_polarity = options.uncalibrated_reach_either_polarity;
     uncalibrated.door_reach_failures_allowed = options.uncalibrated_door_reach_failures_allowed;
     uncalibrated.prefer_door_leaf = options.uncalibrated_prefer_door_leaf;
   }

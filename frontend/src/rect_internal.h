@@ -35,6 +35,9 @@ struct Seg {
   // the straight pieces it was built from; empty for a straight segment. Its corners come from the
   // first and last pieces (see CurvedChains).
   std::vector<Vec2> path;
+  // Bridged from pieces of both polarities (a side whose background changes along it): `dir` is
+  // no polarity, and refinement searches edges of either.
+  bool mixed = false;
   // Line of the piece at end 0 (a) or 1 (b).
   Vec2 EndDir(int end) const {
     if (path.size() < 2) return dir;
@@ -136,8 +139,10 @@ struct Quad {
   double abs_cos = 1.0;
   double aspect_w_h = 1.0;  // metric width / height after canonical ordering
   double area = 0.0;
-  // Passed the L-corner tests only by the door rule (RectDetectorOptions::door_reach_failures_*).
-  bool door_rule = false;
+  // Passed the L-corner tests only by a relaxed rule: the door rule
+  // (RectDetectorOptions::door_reach_failures_*) or a short side end at a corner other than the
+  // lowest (reach_failures_any_corner).
+  bool relaxed = false;
   // A side that may lack edge support (a door hypothesis' bottom, see FindDoorQuads); -1: none.
   int weak_side = -1;
 };
@@ -246,8 +251,14 @@ RectangleTest BestRectangleTest(const Corners& undistorted_px, const std::vector
 std::vector<Mat3> CandidateIntrinsics(const RectDetectorOptions& o, int cols, int rows,
                                       const PinholeRadtan* camera);
 
+// Collinear pieces (directions within `angle_deg`, endpoints within `line_px` of the longer one's
+// line, at most `gap_px` apart along it) merged into one segment each, through union of
+// compatible pairs; pieces that continue each other end to start also join. Only pieces of the
+// same polarity, unless `any_polarity` (then the merged segment is `mixed` when its pieces'
+// polarities differ; continuations are not joined). With `only_joined` only the segments merged
+// from two or more pieces are returned.
 std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, double line_px,
-                                double gap_px);
+                                double gap_px, bool any_polarity = false, bool only_joined = false);
 std::vector<Seg> CurvedChains(const std::vector<Seg>& segs, double touch_px, double step_deg,
                               double total_deg, double min_len);
 
@@ -305,11 +316,12 @@ double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int r
 // width in [door_min_aspect, door_max_aspect].
 bool IsDoorShaped(const RectDetectorOptions& o, const Quad& q);
 // Some corner is not an L-corner. `door_shaped` allows the door rule (door_reach_failures_allowed);
-// `door_rule` (optional) tells whether the quad passed only by it.
+// `relaxed` (optional) tells whether the quad passed only by it or by a short end at a corner
+// other than the lowest (reach_failures_any_corner).
 bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges,
-                  bool door_shaped = false, bool* door_rule = nullptr);
+                  bool door_shaped = false, bool* relaxed = nullptr);
 // Every corner an L-corner (true when the L-corner tests are switched off).
-bool IsLCornered(const EdgeProbe& probe, const Quad& q, bool* door_rule = nullptr);
+bool IsLCornered(const EdgeProbe& probe, const Quad& q, bool* relaxed = nullptr);
 bool IsBrightMargin(const cv::Mat& smooth, const PinholeRadtan* cam, const Corners& outer,
                     const Corners& inner, const RectDetectorOptions& o);
 

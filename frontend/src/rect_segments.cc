@@ -35,7 +35,8 @@ namespace {
 // One group of compatible pieces `g` (indices into `in`) becomes one segment: the length-weighted
 // TLS line through all their endpoints, spanning their projections onto it. A group that bends
 // too far from that line (an arc of continuations) stays as its pieces.
-void MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double line_px,
+// Returns whether the group became one segment.
+bool MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double line_px,
                 std::vector<Seg>* out) {
   std::vector<Vec2> pts;
   std::vector<double> w;
@@ -49,7 +50,7 @@ void MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double li
     w.push_back(in[i].len);
   }
   Line l;
-  if (!FitLineTls(pts, w, idx, &l)) return;
+  if (!FitLineTls(pts, w, idx, &l)) return false;
   Vec2 dir(l.n.y(), -l.n.x());
   if (dir.dot(in[g[0]].dir) < 0.0) dir = -dir;  // keep the polarity orientation
   const Vec2 p0 = l.c * l.n;
@@ -59,7 +60,7 @@ void MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double li
   for (int i : g) extent += in[i].len;
   if (worst > std::max(line_px, 0.01 * extent)) {
     for (int i : g) out->push_back(in[i]);
-    return;
+    return false;
   }
   double lo = 1e300, hi = -1e300;
   for (const auto& p : pts) {
@@ -67,14 +68,17 @@ void MergeGroup(const std::vector<Seg>& in, const std::vector<int>& g, double li
     lo = std::min(lo, t);
     hi = std::max(hi, t);
   }
-  out->push_back(MakeSeg(p0 + lo * dir, p0 + hi * dir));
+  Seg merged = MakeSeg(p0 + lo * dir, p0 + hi * dir);
+  for (int i : g) merged.mixed = merged.mixed || in[i].mixed || in[i].dir.dot(dir) < 0.0;
+  out->push_back(std::move(merged));
+  return true;
 }
 
 }  // namespace
 
 // Merges collinear pieces (union of compatible pairs, then one TLS line through all endpoints).
 std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, double line_px,
-                                double gap_px) {
+                                double gap_px, bool any_polarity, bool only_joined) {
   const int n = static_cast<int>(in.size());
   std::vector<int> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
@@ -82,16 +86,22 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
+  // Directions as angles in [0, 2π) (with `any_polarity`, of the undirected line: [0, π)).
+  const double period = any_polarity ? M_PI : 2 * M_PI;
   std::vector<double> theta(n);
   for (int i = 0; i < n; ++i)
-    theta[i] = std::atan2(in[i].dir.y(), in[i].dir.x()) + M_PI;  // [0, 2π]
+    theta[i] = std::fmod(std::atan2(in[i].dir.y(), in[i].dir.x()) + 2 * M_PI, period);
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(), [&](int i, int j) { return theta[i] < theta[j]; });
   const double tol = angle_deg * M_PI / 180.0;
   const double cos_tol = std::cos(tol);
+  auto aligned = [&](const Seg& s, const Seg& t) {
+    const double c = s.dir.dot(t.dir);
+    return (any_polarity ? std::abs(c) : c) >= cos_tol;
+  };
   auto compatible = [&](const Seg& s, const Seg& t) {
-    if (s.dir.dot(t.dir) < cos_tol) return false;  // same polarity only (see orientation above)
+    if (!aligned(s, t)) return false;  // same polarity only unless any_polarity
     const Seg& lng = s.len >= t.len ? s : t;
     const Seg& sht = s.len >= t.len ? t : s;
     const Line l = LineOf(lng);
@@ -105,7 +115,7 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
   // A smoothly bending edge (bent paper, residual distortion) splits into pieces that are not
   // collinear within line_px but continue each other: the end of one touches the start of the next.
   auto continues = [&](const Seg& s, const Seg& t) {
-    if (s.dir.dot(t.dir) < cos_tol) return false;
+    if (any_polarity || s.dir.dot(t.dir) < cos_tol) return false;
     return (s.b - t.a).squaredNorm() <= line_px * line_px ||
            (t.b - s.a).squaredNorm() <= line_px * line_px;
   };
@@ -116,7 +126,7 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
       if (ok == n) ok = 0;  // (oi + k) mod n without a division per step
       const int j = order[ok];
       double d = theta[j] - theta[i];
-      if (d < 0) d += 2 * M_PI;
+      if (d < 0) d += period;
       if (d > tol) break;
       if (compatible(in[i], in[j]) || continues(in[i], in[j])) parent[find(i)] = find(j);
     }
@@ -126,6 +136,11 @@ std::vector<Seg> MergeCollinear(const std::vector<Seg>& in, double angle_deg, do
   std::vector<Seg> out;
   for (const auto& g : groups) {
     if (g.empty()) continue;
+    if (only_joined) {
+      std::vector<Seg> joined;
+      if (g.size() > 1 && MergeGroup(in, g, line_px, &joined)) out.push_back(std::move(joined[0]));
+      continue;
+    }
     if (g.size() == 1) {
       out.push_back(in[g[0]]);
       continue;
@@ -229,6 +244,19 @@ std::vector<Seg> BuildSegments(const std::vector<std::pair<Vec2, Vec2>>& pieces,
   segs.erase(
       std::remove_if(segs.begin(), segs.end(), [&](const Seg& sg) { return sg.len < min_seg; }),
       segs.end());
+  if (o.bridge_gap_frac > 0.0) {
+    // Bridged sides (grouping only): segments of either polarity on one line with gaps of up to
+    // `bridge_gap_frac` of the diagonal, from segments of at least `bridge_min_piece_frac` of it,
+    // appended as segments of their own when at least
+    // `bridge_min_frac` of the diagonal long (a side whose background changes along it, a side
+    // broken by clutter crossing it); the pieces stay as they are.
+    std::vector<Seg> long_segs;
+    for (const Seg& sg : segs)
+      if (sg.len >= o.bridge_min_piece_frac * diag) long_segs.push_back(sg);
+    for (Seg& b : MergeCollinear(long_segs, o.merge_angle_deg, o.merge_line_px,
+                                 o.bridge_gap_frac * diag, true, true))
+      if (b.len >= o.bridge_min_frac * diag) segs.push_back(std::move(b));
+  }
   if (o.curved_step_deg > 0.0)
     for (Seg& c : CurvedChains(segs, o.merge_line_px, o.curved_step_deg, o.curved_total_deg,
                                o.curved_min_frac * diag))

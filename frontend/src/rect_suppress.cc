@@ -93,11 +93,15 @@ std::vector<Quad> KeepBestOutlines(std::vector<Quad> good, const EdgeProbe& prob
       break;
     }
     if (drop && !replace) continue;
-    bool door_rule = false;
-    if (!IsLCornered(probe, q, &door_rule)) continue;  // as if it had never been found
+    bool relaxed = false;
+    if (!IsLCornered(probe, q, &relaxed)) continue;  // as if it had never been found
+    // A variant that passed the L-corner tests only by a relaxed rule does not displace one that
+    // passed them without (a radiator's outline closed by the lower edge of its shadow, whose
+    // sides do not reach it, against the one closed by the radiator's own bottom edge).
+    if (replace && relaxed && !replace->relaxed) continue;
     Quad& slot = replace ? *replace : kept.emplace_back();
     slot = q;
-    slot.door_rule = door_rule;
+    slot.relaxed = relaxed;
   }
   return kept;
 }
@@ -154,19 +158,19 @@ double IntersectionArea(const Corners& a, const Corners& b) {
   return std::max(0.0, static_cast<double>(cv::intersectConvexConvex(pa, pb, inter, true)));
 }
 
-// A quad that passed the L-corner tests only by the door rule (short side ends at its corners)
-// and crosses a quad that passed them without it or scores higher (overlaps it by more than
-// `door_rule_max_overlap` of the smaller area, neither containing the other) is a variant closed
-// by lines beyond the object's corners (a printed grid's column closed by a line below the grid;
-// a door closed by a slanted line through its jambs' ends at different heights): the other quad
-// is the better hypothesis.
-std::vector<Quad> DropCrossingDoorRuleQuads(const std::vector<Quad>& quads,
-                                            const RectDetectorOptions& o) {
+// A quad that passed the L-corner tests only by a relaxed rule (the door rule, a short side end at
+// any corner) and crosses a quad that passed them without it or scores higher (overlaps it by more
+// than `door_rule_max_overlap` of the smaller area, neither containing the other) is a variant
+// closed by lines beyond the object's corners (a printed grid's column closed by a line below the
+// grid; a door closed by a slanted line through its jambs' ends at different heights; a poster and
+// the cabinet below it joined by their collinear sides): the other quad is the better hypothesis.
+std::vector<Quad> DropCrossingRelaxedQuads(const std::vector<Quad>& quads,
+                                           const RectDetectorOptions& o) {
   std::vector<Quad> out;
   for (const Quad& q : quads) {
     bool crossed = false;
     for (const Quad& k : quads) {
-      if (crossed || !q.door_rule || (k.door_rule && k.score <= q.score) || &k == &q) continue;
+      if (crossed || !q.relaxed || (k.relaxed && k.score <= q.score) || &k == &q) continue;
       if (ContainsWithMargin(k.c, q.c, 2.0) || ContainsWithMargin(q.c, k.c, 2.0)) continue;
       crossed = IntersectionArea(q.c, k.c) > o.door_rule_max_overlap * std::min(q.area, k.area);
     }
@@ -186,7 +190,7 @@ std::vector<Quad> DropFramesAroundLeaves(const std::vector<Quad>& quads,
   for (const Quad& q : quads) {
     bool frame = false;
     for (const Quad& k : quads)
-      frame = frame || (&k != &q && k.area < q.area && (!k.door_rule || q.door_rule) &&
+      frame = frame || (&k != &q && k.area < q.area && (!k.relaxed || q.relaxed) &&
                         k.area >= o.door_leaf_min_area_frac * q.area && IsDoorShaped(o, k) &&
                         ContainsWithMargin(q.c, k.c, 2.0));
     if (!frame) out.push_back(q);
@@ -216,7 +220,7 @@ std::vector<Quad> Suppress(const std::vector<Quad>& good, const std::vector<Quad
     for (const Quad& u : unique) dup = dup || CornerDistanceBestShift(q.c, u.c) < 1e-9;
     if (!dup) unique.push_back(q);
   }
-  unique = DropCrossingDoorRuleQuads(unique, o);
+  unique = DropCrossingRelaxedQuads(unique, o);
   if (o.prefer_door_leaf) unique = DropFramesAroundLeaves(unique, o);
   if (o.drop_contained) unique = DropContained(unique, cut_off, probe);
   if (o.max_detections > 0 && static_cast<int>(unique.size()) > o.max_detections)

@@ -87,15 +87,24 @@ double CornerReach(const EdgeProbe& probe, const Vec2& corner, const Vec2& u, bo
   int valid = 0, support = 0;
   for (int k = 0; k < kSamples; ++k) {
     const Vec2 p = corner + (t0 + (t1 - t0) * k / (kSamples - 1)) * u;
-    Vec2 e;
-    double gradient;
-    int sg;
-    if (!probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign)) {
-      valid += probe.Searchable(p) ? 1 : 0;
-      continue;
+    // The side's polarity first; with `reach_either_polarity` the opposite one too (the
+    // background changes along the side: a panel before a bright wall above, a dark radiator
+    // below).
+    bool searchable = false, on_edge = false;
+    for (const int sign : {edge.sign, -edge.sign}) {
+      Vec2 e;
+      double gradient;
+      int sg;
+      if (probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, sign)) {
+        searchable = true;
+        on_edge = std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+      } else {
+        searchable = searchable || probe.Searchable(p);
+      }
+      if (on_edge || !o.reach_either_polarity) break;
     }
-    ++valid;
-    support += std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+    valid += searchable;
+    support += on_edge;
   }
   if (valid < 3) return 1.0;
   return static_cast<double>(support) / valid;
@@ -224,12 +233,13 @@ double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int r
 // quad closed by a line a little beyond the object, such as the outer edge of a tag's white
 // margin with the black square's other three sides).
 bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges,
-                  bool door_shaped, bool* door_rule) {
+                  bool door_shaped, bool* relaxed) {
   const RectDetectorOptions& o = probe.o;
-  // Only the ends at the lowest corner in the image (a door's bottom in shadow, on the floor) may
-  // fail the reach test, at most `reach_failures_allowed` of them; a door-shaped quad may have up
-  // to `door_reach_failures_allowed` short ends at any corner (`door_rule` then tells whether it
-  // needed that).
+  // The ends at the lowest corner in the image (a door's bottom in shadow, on the floor) may fail
+  // the reach test, at most `reach_failures_allowed` of them, and besides those at most
+  // `reach_failures_any_corner` ends at any corner; a door-shaped quad may have up to
+  // `door_reach_failures_allowed` short ends at any corner (`relaxed` then tells whether it
+  // needed either).
   const bool door = door_shaped && o.door_reach_failures_allowed > o.reach_failures_allowed;
   bool needs_door_rule = false;
   int lowest = 0, second = -1;  // the two lowest corners in the image
@@ -240,6 +250,27 @@ bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<Sid
   // Continuation past each side's start (P) and end (Q) corner, kept for the door rule.
   std::array<std::array<double, 2>, 4> cont{};
   int short_ends = 0;  // side ends whose edge does not reach the corner
+  int short_low = 0;   // ... of them at the lowest corner
+  bool used_any_corner = false;
+  // Short ends at any corner only for a quad with sides of at least `any_corner_min_side_frac` of
+  // the image diagonal (on a small quad the reach test's few pixels next to the corner are all a
+  // variant closed by a line a little beyond the object differs by: a tag's margin mixed with its
+  // black square, a radiator closed by the lower edge of its shadow) that is clear of the image
+  // border by `continuation_frac` x its shortest side (near the border quads are closed by lines
+  // of what runs out of view: a window cut off by the border, closed by its frame's inner edge).
+  int any_corner = o.reach_failures_any_corner;
+  const double shortest = ShortestSide(c);
+  if (shortest < o.any_corner_min_side_frac * std::hypot(probe.smooth.cols, probe.smooth.rows))
+    any_corner = 0;
+  if (any_corner > 0) {
+    const double clear = o.continuation_frac * shortest;
+    for (const Vec2& x : c) {
+      const Vec2 d = probe.cam ? probe.cam->DistortPixel(x) : x;
+      if (std::min({d.x(), d.y(), probe.smooth.cols - 1 - d.x(), probe.smooth.rows - 1 - d.y()}) <
+          clear)
+        any_corner = 0;
+    }
+  }
   for (int side = 0; side < 4; ++side) {
     const Vec2 P = c[(side + 3) % 4], Q = c[side];
     const double L = (Q - P).norm();
@@ -255,16 +286,20 @@ bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<Sid
     if (o.min_corner_reach > 0.0) {
       const bool q_short = CornerReach(probe, Q, -ue, true, L, edges[side]) < o.min_corner_reach;
       const bool p_short = CornerReach(probe, P, us, false, L, edges[side]) < o.min_corner_reach;
+
       short_ends += q_short + p_short;
-      needs_door_rule = needs_door_rule || (q_short && side != lowest) ||
-                        (p_short && (side + 3) % 4 != lowest) ||
-                        short_ends > o.reach_failures_allowed;
+      short_low += (q_short && side == lowest) + (p_short && (side + 3) % 4 == lowest);
+      const int short_elsewhere =
+          short_ends - std::min(short_low, o.reach_failures_allowed);  // beyond the lowest's
+      used_any_corner = short_elsewhere > 0;
+      needs_door_rule = needs_door_rule || short_elsewhere > any_corner;
       if (needs_door_rule && (!door || short_ends > o.door_reach_failures_allowed)) return true;
     }
     cont[side] = {SideContinuation(probe, P, -us, true, L, edges[side]),
                   SideContinuation(probe, Q, ue, false, L, edges[side])};
     if (!door && std::max(cont[side][0], cont[side][1]) > o.max_side_continuation) return true;
   }
+
   // The door rule for sides running on past a corner of a door-shaped quad: at its two lowest
   // corners (the jambs of the frame run on to the floor below the leaf, the floor line or skirting
   // on past the door's bottom corners), and at a top corner where only the more horizontal side
@@ -281,14 +316,14 @@ bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<Sid
     const Vec2 d = a_runs ? Vec2(c[i] - c[(i + 3) % 4]) : Vec2(c[(i + 1) % 4] - c[i]);
     if (std::abs(d.x()) <= std::abs(d.y()) || ++top_run_ons > 1) return true;
   }
-  if (door_rule) *door_rule = needs_door_rule;
+  if (relaxed) *relaxed = needs_door_rule || used_any_corner;
   return false;
 }
 
-bool IsLCornered(const EdgeProbe& probe, const Quad& q, bool* door_rule) {
-  if (door_rule) *door_rule = false;
+bool IsLCornered(const EdgeProbe& probe, const Quad& q, bool* relaxed) {
+  if (relaxed) *relaxed = false;
   return !(probe.o.max_side_continuation < 1.0 || probe.o.min_corner_reach > 0.0) ||
-         !HasTJunction(probe, q.c_grouping, q.edges, IsDoorShaped(probe.o, q), door_rule);
+         !HasTJunction(probe, q.c_grouping, q.edges, IsDoorShaped(probe.o, q), relaxed);
 }
 
 // Bright margin test (RectDetectorOptions::prefer_inner_of_bright_margin) for an outer quad and a

@@ -96,6 +96,22 @@ struct RectDetectorOptions {
   double merge_angle_deg = 3.0;
   double merge_line_px = 2.0;
   double merge_gap_frac = 0.04;
+  // Bridged sides: collinear segments of either polarity with gaps of up to this [fraction of the
+  // image diagonal] are also joined into one segment, kept beside the pieces for grouping only (a
+  // side whose background changes along it: a panel before a bright wall above and a dark
+  // radiator below; a side broken by clutter crossing it). Refinement searches such a side for
+  // edges of either polarity. 0 switches this off. Without a calibration
+  // `uncalibrated_bridge_gap_frac` is used instead (off: on the real door photos it found no door
+  // more and one extra rectangle more, and the sudoku page's top side closed on a line of text).
+  double bridge_gap_frac = 0.08;
+  double uncalibrated_bridge_gap_frac = 0.0;
+  // Shortest bridged side kept [fraction of the image diagonal]: each one costs grouping time,
+  // and short sides are seldom broken.
+  double bridge_min_frac = 0.1;
+  // Shortest segment a bridged side is made of [fraction of the image diagonal]: the pieces of
+  // motion-blurred edges stay apart (bridging them in the rendered blur clip found the blurred
+  // poster in more frames, whose tracks then restarted: 5 id switches against 2).
+  double bridge_min_piece_frac = 0.06;
   // Slowly bending edges (curled paper): straight pieces that continue each other (the end of one
   // at the start of the next, same polarity) with directions within `curved_step_deg` of each
   // other also form one curved segment when their first and last directions differ by at most
@@ -195,10 +211,29 @@ struct RectDetectorOptions {
   // quad (its corner lies beyond where the side's edge ends: a tag's black square closed on one
   // side by the outer edge of its white margin). 0 switches the test off.
   double min_corner_reach = 0.5;
+  // The corner reach test also counts edge points of the polarity opposite to the side's: where
+  // the background changes along a side (a panel before a bright wall above and a dark radiator
+  // below, a checkerboard's border squares) the stretch next to a corner may have the other
+  // polarity. A line running on across a plain margin (the tag case above) has no edge of either.
+  // Without a calibration `uncalibrated_reach_either_polarity` is used instead (off: the sudoku
+  // page's outline closed by the sheet's edge beyond the printed square passed with it).
+  bool reach_either_polarity = true;
+  bool uncalibrated_reach_either_polarity = false;
   // Side ends that may fail the corner reach test, and only the two ends at the quad's lowest
   // corner in the image (a door's bottom in shadow or on a floor line). 0: every side reaches every
   // corner. Without a calibration `uncalibrated_reach_failures_allowed` is used instead.
   int reach_failures_allowed = 0;
+  // Besides those, side ends at any corner that may fail the corner reach test: one lets a side
+  // whose edge fades over its last pixels (a grey panel's corner against a grey floor, a foot or
+  // bracket at the corner, a checkerboard's black corner square) through, while a quad closed by
+  // a line beyond the object still fails (both sides meeting that line run on across a plain
+  // margin: two short ends). Without a calibration `uncalibrated_reach_failures_any_corner` is used
+  // instead.
+  int reach_failures_any_corner = 1;
+  int uncalibrated_reach_failures_any_corner = 0;
+  // ...and only on quads whose shortest side is at least this [fraction of the image diagonal; 2 x
+  // min_side_frac] and that are clear of the image border (see HasTJunction in rect_verify.cc).
+  double any_corner_min_side_frac = 0.08;
   // A door-shaped quad (metric height / width in [door_min_aspect, door_max_aspect]; 0 switches
   // this off) may have up to this many side ends fail the corner reach test, at any corner: a door
   // leaf's edges fade into its frame where the leaf and frame have the same colour, into the
@@ -208,9 +243,11 @@ struct RectDetectorOptions {
   int uncalibrated_door_reach_failures_allowed = 8;
   double door_min_aspect = 1.6;
   double door_max_aspect = 3.5;
-  // A quad that passed only by the door rule and overlaps a quad that passed without it by more
-  // than this fraction of the smaller area (neither containing the other) is dropped (a printed
-  // grid's column closed by a line below the grid crosses the grid's outline).
+  // A quad that passed only by the door rule or by a short end at any corner
+  // (`reach_failures_any_corner`) and overlaps a quad that passed without it (or scores higher) by
+  // more than this fraction of the smaller area (neither containing the other) is dropped (a
+  // printed grid's column closed by a line below the grid crosses the grid's outline; a poster and
+  // the cabinet below it joined by their collinear left sides cross both).
   double door_rule_max_overlap = 0.3;
   double reach_start_px = 2.0;
   double reach_min_px = 6.0;
