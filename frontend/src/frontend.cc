@@ -257,6 +257,10 @@ struct FrontEnd::Impl {
         elsewhere = dist > o.reid_reject_frac * ShortestSide(pc);
       }
       if (elsewhere) continue;
+      // A detection touching the border may be an outline closed by an inner edge, whose look
+      // matches a plain look-alike: once the map knows where the objects are, it must also predict
+      // this one at the detection.
+      if (prediction.map_known && !near && !AwayFromBorder(d, o)) continue;
       double object_best = -2.0;
       Corners object_corners = d.corners_undistorted;
       for (int r = 0; r < orders; ++r) {

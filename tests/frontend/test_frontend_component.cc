@@ -87,8 +87,8 @@ TEST(FrontEndComponent, ConfirmsTracksLosesAndReidentifies) {
 // `predict(k, window_id, window_truth)` from frame 10 on (before: no map); returns whether the
 // window came back under its old id.
 template <typename Predict>
-bool WindowReturnsUnderItsId(Predict predict) {
-  FrontEnd fe(Camera());
+bool WindowReturnsUnderItsId(Predict predict, const FrontEndOptions& options = FrontEndOptions()) {
+  FrontEnd fe(Camera(), options);
   std::vector<Corners> truth;
   int window = -1;
   for (int k = 0; k < 40; ++k) {
@@ -134,6 +134,25 @@ TEST(FrontEndComponent, ReidentificationFollowsTheMapsPrediction) {
     p.map_known = true;
     return p;
   })) << "not in the map";
+  // A detection touching the border (here: every detection, through a margin wider than the
+  // clip's objects are from it) may be a cut outline that merely looks like the object: once the
+  // map is known it returns only where the map predicts it, not 100 px away.
+  FrontEndOptions border;
+  border.border_margin_px = 400.0;
+  border.confirm_away_from_border = false;
+  const auto shifted = [](double dx) {
+    return [dx](int id, const Corners& c) {
+      FramePrediction p;
+      p.map_known = true;
+      p.objects.emplace_back(id, c);
+      for (Vec2& x : p.objects.back().second) x += Vec2(dx, 0.0);
+      return p;
+    };
+  };
+  EXPECT_TRUE(WindowReturnsUnderItsId(shifted(0.0), border)) << "at the border, predicted there";
+  EXPECT_FALSE(WindowReturnsUnderItsId(shifted(100.0), border))
+      << "at the border, predicted 100 px away";
+  EXPECT_TRUE(WindowReturnsUnderItsId(shifted(100.0))) << "away from the border, 100 px away";
 }
 
 // While the map predicts a dormant object wholly in view, the detector runs on every frame (not
