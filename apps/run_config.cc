@@ -166,6 +166,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.tag_crop_margin_frac", &f.tag_crop_margin_frac, kNonNegative},
       {"frontend.first_rect_id", &f.first_rect_id, kNonNegative},
       {"frontend.rect.detect_long_side", &f.rect.detect_long_side, kNonNegative},
+      {"frontend.rect.texture_level", &f.rect.texture_level, kNonNegative},
       {"frontend.rect.canny_noise_multiple", &f.rect.canny_noise_multiple, kNonNegative},
       {"frontend.rect.min_edge_contrast", &f.rect.min_edge_contrast, kNonNegative},
       {"frontend.rect.canny_low_ratio", &f.rect.canny_low_ratio, kNonNegative},

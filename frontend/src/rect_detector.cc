@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <optional>
 #include <sstream>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -69,6 +72,7 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (!(door_min_aspect >= 0.0 && door_max_aspect >= door_min_aspect))
     os << "door_min_aspect must be >= 0 and <= door_max_aspect; ";
   if (detect_long_side < 0) os << "detect_long_side must be >= 0; ";
+  if (texture_level < 0) os << "texture_level must be >= 0; ";
   if (!(focal_prior_min > 0.0 && focal_prior_max >= focal_prior_min))
     os << "focal_prior_min must be positive and <= focal_prior_max; ";
   if (reach_failures_allowed < 0 || uncalibrated_reach_failures_allowed < 0 ||
@@ -99,6 +103,73 @@ RectDetector::RectDetector(Options options) : options_(std::move(options)) {
 }
 
 namespace {
+
+// A camera model for an image scaled by 1/s (s = full px per level px): pixel centres
+// map as u_level = (u + 0.5) / s - 0.5; the distortion acts on normalised coordinates and stays.
+PinholeRadtan ScaledCamera(const PinholeRadtan& c, int cols, int rows, double s) {
+  PinholeRadtan l = c;
+  l.width = cols;
+  l.height = rows;
+  l.fx = c.fx / s;
+  l.fy = c.fy / s;
+  l.cx = (c.cx + 0.5) / s - 0.5;
+  l.cy = (c.cy + 0.5) / s - 0.5;
+  return l;
+}
+
+// Texture hypotheses (RectDetectorOptions::texture_level): quads found on the area-averaged
+// gradient magnitude, corners in full-resolution undistorted px, no segments (sides of either
+// polarity).
+std::vector<rect_internal::Quad> TextureHypotheses(const RectDetectorOptions& o,
+                                                   const rect_internal::EdgeImages& edges,
+                                                   const PinholeRadtan& camera) {
+  namespace ri = rect_internal;
+  const int k = o.texture_level;
+  const int cols = edges.dx.cols / k, rows = edges.dx.rows / k;
+  std::vector<ri::Quad> out;
+  if (cols < 16 || rows < 16) return out;
+  // (|dx| + |dy|) / 4 (Sobel's response to a step of C grey levels: 4C) averaged over k x k blocks
+  // in one pass: column sums over k rows, then sums of k columns.
+  cv::Mat level(rows, cols, CV_8UC1);
+  std::vector<int> column(static_cast<size_t>(cols) * k);
+  const double to_level = 0.25 / (k * k);
+  for (int y = 0; y < rows; ++y) {
+    std::fill(column.begin(), column.end(), 0);
+    for (int r = 0; r < k; ++r) {
+      const int16_t* gx = edges.dx.ptr<int16_t>(y * k + r);
+      const int16_t* gy = edges.dy.ptr<int16_t>(y * k + r);
+      for (int x = 0; x < cols * k; ++x) column[x] += std::abs(gx[x]) + std::abs(gy[x]);
+    }
+    uint8_t* level_row = level.ptr<uint8_t>(y);
+    for (int x = 0; x < cols; ++x) {
+      int sum = 0;
+      for (int c = 0; c < k; ++c) sum += column[x * k + c];
+      level_row[x] = cv::saturate_cast<uint8_t>(sum * to_level);
+    }
+  }
+  const PinholeRadtan lc = ScaledCamera(camera, cols, rows, k);
+  const PinholeRadtan* cam = lc.HasDistortion() ? &lc : nullptr;
+  const double diag = std::hypot(cols, rows);
+  ri::EdgeImages le = ri::DetectEdges(level, o);
+  const int min_seg = ri::MinSegmentPx(o, diag);
+  // Straight sides only: no bridged sides, no curved ones (a block's outline is neither).
+  RectDetectorOptions so = o;
+  so.bridge_gap_frac = 0.0;
+  so.curved_step_deg = 0.0;
+  const std::vector<ri::Seg> segs =
+      ri::BuildSegments(ri::TracePieces(le.edges, std::max(6, min_seg / 3), o.segment_fit_px),
+                        le.smooth, cam, so, diag, min_seg);
+  const double min_side = o.min_side_frac * diag;
+  for (const ri::Quad& lq : ri::FindQuads(ri::FindJunctions(segs, o), min_side, o.max_hypotheses)) {
+    ri::Quad q;
+    for (int i = 0; i < 4; ++i) {
+      const Vec2 p = cam ? cam->DistortPixel(lq.c[i]) : lq.c[i];
+      q.c[i] = camera.UndistortPixel((p + Vec2(0.5, 0.5)) * k - Vec2(0.5, 0.5));
+    }
+    out.push_back(q);
+  }
+  return out;
+}
 
 // The pipeline on one image (the detection level); `smooth_out` (optional) receives the smoothed
 // image the refinement read.
@@ -184,6 +255,10 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
         gray.cols, gray.rows, min_side);
     quads.insert(quads.end(), doors.begin(), doors.end());
   }
+  if (camera && o.texture_level > 0) {
+    const std::vector<ri::Quad> texture = TextureHypotheses(o, edges, *camera);
+    quads.insert(quads.end(), texture.begin(), texture.end());
+  }
   res.hypotheses = static_cast<int>(quads.size());
   if (o.debug)
     for (const ri::Quad& q : quads) res.hypothesis_quads.push_back(q.c);
@@ -209,19 +284,6 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   res.times.Add("nms", sw.Lap());
   if (smooth_out) *smooth_out = edges.smooth;
   return res;
-}
-
-// A camera model for an image scaled by 1/s (s = full px per level px): pixel centres
-// map as u_level = (u + 0.5) / s - 0.5; the distortion acts on normalised coordinates and stays.
-PinholeRadtan ScaledCamera(const PinholeRadtan& c, int cols, int rows, double s) {
-  PinholeRadtan l = c;
-  l.width = cols;
-  l.height = rows;
-  l.fx = c.fx / s;
-  l.fy = c.fy / s;
-  l.cx = (c.cx + 0.5) / s - 0.5;
-  l.cy = (c.cy + 0.5) / s - 0.5;
-  return l;
 }
 
 // Polarity of each side of a quad (corners in the level's distorted px; side i joins c[i-1] and

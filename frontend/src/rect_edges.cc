@@ -177,11 +177,10 @@ void CannyThresholds(const cv::Mat& dx, const cv::Mat& dy, const RectDetectorOpt
 // and serve both the threshold statistics and Canny.
 EdgeImages DetectEdges(const cv::Mat& gray, const RectDetectorOptions& o) {
   EdgeImages out;
-  cv::Mat dx, dy;
   out.smooth = EdgeRefineImage(gray);
-  cv::spatialGradient(out.smooth, dx, dy, 3, cv::BORDER_REPLICATE);
-  CannyThresholds(dx, dy, o, &out.canny_low, &out.canny_high);
-  cv::Canny(dx, dy, out.edges, out.canny_low, out.canny_high, true);
+  cv::spatialGradient(out.smooth, out.dx, out.dy, 3, cv::BORDER_REPLICATE);
+  CannyThresholds(out.dx, out.dy, o, &out.canny_low, &out.canny_high);
+  cv::Canny(out.dx, out.dy, out.edges, out.canny_low, out.canny_high, true);
   return out;
 }
 

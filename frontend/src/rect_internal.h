@@ -225,9 +225,9 @@ void CannyThresholds(const cv::Mat& dx, const cv::Mat& dy, const RectDetectorOpt
                      double* low, double* high);
 
 // What the edge stage hands on: the smoothed image (σ = 1 px, also the image every later stage
-// samples), the Canny edge map and the thresholds used.
+// samples), its Sobel gradients (CV_16S), the Canny edge map and the thresholds used.
 struct EdgeImages {
-  cv::Mat smooth, edges;
+  cv::Mat smooth, dx, dy, edges;
   double canny_low = 0.0, canny_high = 0.0;
 };
 EdgeImages DetectEdges(const cv::Mat& gray, const RectDetectorOptions& o);

@@ -101,12 +101,12 @@ TEST(RealInFlight, EurocMattressOnTheFloorOnly) {
 
 // The ten in-flight frames: the radiator under the window on the right (fully in view from the
 // third frame on; before that the near partition panel hides its left end) and the checkerboard on
-// its stand. Every report must be one of them (no false positive). The board is found in one frame
-// of ten: its outline is a thin white margin along alternating black and white squares of ~8 px,
-// so Canny breaks each side into 5-9 px pieces (at the black squares the strongest edge is the
-// margin's inner edge, ~2 px inside), too short to be segments; given its outline as a hypothesis,
-// refinement and the L-corner tests accept it (score 0.84-0.93), so it is the grouping that misses
-// it (a known limit, see the front end's README).
+// its stand (fully in view in all ten). Every report must be one of them (no false positive). The
+// board's outline is a thin white margin along alternating black and white squares of ~8 px, so
+// Canny breaks each side into 5-9 px pieces (at the black squares the strongest edge is the
+// margin's inner edge, ~2 px inside), too short to be segments: the segments give it in frame 6
+// only, the texture hypotheses (RectDetectorOptions::texture_level: quads on the gradient
+// magnitude averaged 4x, where the board is one bright block) in frames 1, 3, 7 and 9.
 TEST(RealInFlight, EurocInFlightFramesReportOnlyTheRadiatorAndTheBoard) {
   FSP_REQUIRE_TEST_DATA(dir, "euroc_v101_inflight10/mav0/cam0");
   const Calibration calib = ReadCalibration(dir + "/sensor.yaml");
@@ -115,21 +115,36 @@ TEST(RealInFlight, EurocInFlightFramesReportOnlyTheRadiatorAndTheBoard) {
       "1403715297512143104", "1403715297562142976", "1403715297612143104", "1403715297662142976",
       "1403715297712143104", "1403715297762142976"};
   // The radiator in the first and last frames and the board in frame 6 (labelled), the radiator's
-  // area over all ten frames (it moves right by ~70 px): x in [515, 665], y in [110, 215].
+  // area over all ten frames (it moves right by ~70 px): x in [515, 665], y in [110, 215]. In the
+  // other frames the board is a report inside its area over all ten frames (it moves right by
+  // ~75 px: x in [115, 265], y in [135, 242]) with its shape: IoU >= 0.8 with frame 6's outline
+  // moved to the report's centre.
   const Corners board6 = {Vec2(179, 219), Vec2(235, 217), Vec2(233.5, 146.5), Vec2(177, 150.5)};
+  auto centre = [](const Corners& c) { return Vec2((c[0] + c[1] + c[2] + c[3]) / 4.0); };
+  auto board_like = [&](const Corners& c) {
+    for (const Vec2& p : c)
+      if (p.x() < 115 || p.x() > 265 || p.y() < 135 || p.y() > 242) return false;
+    Corners moved = board6;
+    for (Vec2& p : moved) p += centre(c) - centre(board6);
+    return QuadIou(c, moved) >= 0.8;
+  };
   const Corners radiator9 = {Vec2(595, 196), Vec2(646, 197), Vec2(655, 124), Vec2(602, 119)};
   RectDetector det;
   int radiator = 0, board = 0, extras = 0;
+  std::string board_frames;
   for (size_t f = 0; f < frames.size(); ++f) {
     const auto dets =
         det.Detect(ReadGray8(dir + "/data/" + frames[f] + ".jpg"), &calib.camera).detections;
+    int board_here = 0;
     for (const Detection& d : dets) {
       bool in_radiator_area = true;
       for (const Vec2& c : d.corners_px)
         in_radiator_area =
             in_radiator_area && c.x() >= 515 && c.x() <= 665 && c.y() >= 110 && c.y() <= 215;
-      if (f == 6 && QuadIou(d.corners_px, board6) >= 0.8) {
+      if (f == 6 ? QuadIou(d.corners_px, board6) >= 0.8 : board_like(d.corners_px)) {
         ++board;
+        ++board_here;
+        board_frames += " " + std::to_string(f);
       } else if (in_radiator_area) {
         ++radiator;
         if (f == 9) {
@@ -139,13 +154,16 @@ TEST(RealInFlight, EurocInFlightFramesReportOnlyTheRadiatorAndTheBoard) {
         ++extras;
       }
     }
+    EXPECT_LE(board_here, 1) << "frame " << f;
     std::printf("%s: %zu detections\n", frames[f].c_str(), dets.size());
   }
-  std::printf("radiator %d / 10 frames, board %d / 10, extras %d\n", radiator, board, extras);
+  std::printf("radiator %d / 10 frames, board %d / 10 (frames%s), extras %d\n", radiator, board,
+              board_frames.c_str(), extras);
   // Measured: radiator in 6 frames (2-4 and 7-9: not while the panel hides its left end, not in
-  // frames 5 and 6), board in frame 6 (both as before this test's changes to the detector).
+  // frames 5 and 6), board in 5 frames (1, 3, 6, 7, 9; frame 6 only before the texture
+  // hypotheses), never twice in one frame.
   EXPECT_GE(radiator, 6);
-  EXPECT_EQ(board, 1);
+  EXPECT_GE(board, 5);
   EXPECT_EQ(extras, 0);
 }
 

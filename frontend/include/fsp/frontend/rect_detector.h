@@ -70,6 +70,14 @@ struct RectDetectorOptions {
   // the pixel values (edge blur, search widths, slacks) are level pixels, and the time does not
   // grow with the pixel count. 0 detects at full resolution.
   int detect_long_side = 400;
+  // Texture hypotheses (with a calibration only): the gradient magnitude (|dx| + |dy| of the
+  // smoothed image) area-averaged by this factor, and the edge, segment and grouping stages run on
+  // that map; its quads (corners scaled to full resolution) join the hypotheses, every side
+  // searched for edges of either polarity. A rectangle whose interior is a fine pattern (a
+  // checkerboard: its sides alternate between the outer edge at white squares and the margin's
+  // inner edge of the opposite polarity at black ones, broken at every square) is one bright
+  // block there with a clean outline. 0 switches this off.
+  int texture_level = 4;
 
   // --- 1. edges ---
   // High Canny threshold as a multiple of the gradient noise level, estimated as the median Sobel
