@@ -17,8 +17,7 @@ std::string Slurp(const std::filesystem::path& p) {
 
 ProcessFolder::ProcessFolder(const std::string& name,
                              const std::function<void(const std::filesystem::path&)>& fill)
-    : path_(std::filesystem::temp_directory_path() / "fsp_tests" /
-            (name + "_" + std::to_string(::getpid()))) {
+    : path_(ScratchRoot() / (name + "_" + std::to_string(::getpid()))) {
   std::filesystem::remove_all(path_);
   std::filesystem::create_directories(path_);
   fill(path_);
@@ -31,8 +30,8 @@ ProcessFolder::~ProcessFolder() {
 
 CommandResult RunFsp(const std::string& args) {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const auto dir = std::filesystem::temp_directory_path() / "fsp_tests" / "_capture" /
-                   (std::string(info->test_suite_name()) + "." + info->name());
+  const auto dir =
+      ScratchRoot() / "_capture" / (std::string(info->test_suite_name()) + "." + info->name());
   std::filesystem::create_directories(dir);
   const auto out = dir / "out.txt", err = dir / "err.txt";
   const std::string cmd =

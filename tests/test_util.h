@@ -24,18 +24,23 @@ inline std::string TestDataDir() {
                << "' not found: set FSP_TEST_DATA to the shared data "     \
                   "directory (see tests/README.md)"
 
+// Where the tests write: test_scratch/ in this build tree.
+inline std::filesystem::path ScratchRoot() {
+  return FSP_TEST_SCRATCH;
+}
+
 // A fresh, empty scratch directory named after the running test.
 inline std::filesystem::path ScratchDir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  std::filesystem::path dir = std::filesystem::temp_directory_path() / "fsp_tests" /
-                              (std::string(info->test_suite_name()) + "." + info->name());
+  std::filesystem::path dir =
+      ScratchRoot() / (std::string(info->test_suite_name()) + "." + info->name());
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
 }
 
 // A folder for what one test process renders once and reads in several tests:
-// temp/fsp_tests/NAME_<pid>, created empty and handed to FILL (CTest runs the tests of a file as
+// ScratchRoot()/NAME_<pid>, created empty and handed to FILL (CTest runs the tests of a file as
 // parallel processes: a shared folder would be deleted by one while another reads it). Removed
 // when the object is destroyed, so a function-local static one goes when the process exits: the
 // suite leaves no renders behind.
