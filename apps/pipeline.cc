@@ -157,7 +157,7 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   report.config = config.source;
   report.realtime = request.realtime;
   report.follow = request.follow;
-  report.threaded = request.realtime || request.follow || !request.synchronous;
+  report.threaded = !request.synchronous;  // --sync is refused with the live modes (above)
   report.seed = gt ? config.gt_corners.seed : 0;
   report.pixel_sigma = gt ? config.gt_corners.pixel_sigma : 0.0;
   int64_t frame_period_ns = 0;

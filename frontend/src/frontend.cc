@@ -232,6 +232,10 @@ struct FrontEnd::Impl {
     // With gravity known the corner order is canonical (s1 bottom-left): only that order is tried;
     // without it, all four.
     const int orders = prediction.gravity_C ? 1 : 4;
+    // A detection touching the border may be an outline closed by an inner edge: its corners may
+    // lie near another object's prediction and its look match a plain look-alike. It gets no lower
+    // bar, and once the map is known it returns only where the map predicts it.
+    const bool whole = AwayFromBorder(d, o);
     int best_id = -1;
     double best_sim = -2.0, second_sim = -2.0;    // best over objects, and the next object's best
     bool best_near = false, second_near = false;  // ... predicted at the detection by the map
@@ -251,16 +255,11 @@ struct FrontEnd::Impl {
         if (pid != id) continue;
         const double dist = MeanCornerDistanceBestShift(pc, d.corners_undistorted);
         near = dist <= o.reid_gate_frac * ShortestSide(pc);
-        // The lower bar only for a whole outline: a detection touching the border may be one
-        // closed by an inner edge, whose corners lie near another object's prediction.
-        if (near && AwayFromBorder(d, o)) need = o.reid_min_similarity_predicted;
+        if (near && whole) need = o.reid_min_similarity_predicted;
         elsewhere = dist > o.reid_reject_frac * ShortestSide(pc);
       }
       if (elsewhere) continue;
-      // A detection touching the border may be an outline closed by an inner edge, whose look
-      // matches a plain look-alike: once the map knows where the objects are, it must also predict
-      // this one at the detection.
-      if (prediction.map_known && !near && !AwayFromBorder(d, o)) continue;
+      if (prediction.map_known && !near && !whole) continue;
       double object_best = -2.0;
       Corners object_corners = d.corners_undistorted;
       for (int r = 0; r < orders; ++r) {
