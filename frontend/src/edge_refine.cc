@@ -134,7 +134,8 @@ bool SampleSide(const EdgeProbe& probe, const Seg* sg_side, const Vec2& P, const
     Vec2 e;
     double gradient;
     int sg;
-    if (!probe.Peak(p, n, min_gradient, &e, &gradient, &sg, want_sign)) continue;
+    if (!probe.Peak(p, n, probe.MinGradientAt(p, min_gradient), &e, &gradient, &sg, want_sign))
+      continue;
     (sg > 0 ? s->pos : s->neg)++;
     s->on_path += std::abs(n.dot(e - p)) <= 1.0;
     s->pts.push_back(e);
@@ -307,6 +308,11 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
   const RectDetectorOptions& o = probe.o;
   std::mt19937 rng(o.seed);
   std::vector<Quad> refined;
+  // The coarse pass of the texture hypotheses: the same probe with a wider search.
+  RectDetectorOptions wide = o;
+  wide.search_px = std::max(o.search_px, o.texture_search_px);
+  EdgeProbe wide_probe(probe.smooth, probe.cam, wide);
+  wide_probe.gain = probe.gain;
   for (Quad& q : quads) {
     const RectangleTest pre = BestRectangleTest(q.c, Ks);
     if (!pre.valid || pre.abs_cos > std::min(1.0, 2.0 * o.max_abs_cos)) continue;
@@ -317,7 +323,19 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
     const double reach_out = (std::max(o.container_outside_frac, 0.0) + 0.2) * side +
                              2.0 * o.search_px + o.max_corner_outside_px;
     if (CornerOutside(q.c, probe.cam, probe.smooth.cols, probe.smooth.rows) > reach_out) continue;
-    if (RefineQuad(probe, segs, min_gradient, &rng, &q, &q.edges)) refined.push_back(q);
+    const Quad hypothesis = q;
+    if (RefineQuad(probe, segs, min_gradient, &rng, &q, &q.edges)) {
+      refined.push_back(q);
+      continue;
+    }
+    // A texture hypothesis whose corners are too far off for the usual search: a coarse pass
+    // first (with the usual pass first, the board's outline is kept where that pass finds it: the
+    // wide search also reaches the pattern's own edges next to the outline).
+    q = hypothesis;
+    if (q.texture && o.texture_search_px > o.search_px &&
+        RefineQuad(wide_probe, segs, min_gradient, &rng, &q, &q.edges) &&
+        RefineQuad(probe, segs, min_gradient, &rng, &q, &q.edges))
+      refined.push_back(q);
   }
   return refined;
 }

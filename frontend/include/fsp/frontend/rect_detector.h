@@ -78,6 +78,17 @@ struct RectDetectorOptions {
   // inner edge of the opposite polarity at black ones, broken at every square) is one bright
   // block there with a clean outline. 0 switches this off.
   int texture_level = 4;
+  // Search half-width [px] of a coarse refinement of a texture hypothesis that the usual one
+  // (search_px) does not refine: its corners, scaled up from the averaged map, are up to ~4 px
+  // off; the usual pass follows the coarse one. (Coarse first for every texture hypothesis lost
+  // the board where the usual pass alone finds it: the wide search also reaches the pattern's
+  // own edges.) 0: the usual pass only.
+  double texture_search_px = 6.0;
+  // Side ends of a texture hypothesis that may fall short of their corner in the corner reach test
+  // (any corner, any size; see reach_failures_any_corner): a checkerboard's dark corner square
+  // next to its thin white margin has the stronger edge ~2 px inside the outline. In-flight EuRoC
+  // frames: with 1, the board in 6 of 10 frames; with 2, in 7.
+  int texture_reach_failures_any_corner = 2;
 
   // --- 1. edges ---
   // High Canny threshold as a multiple of the gradient noise level, estimated as the median Sobel
@@ -90,6 +101,17 @@ struct RectDetectorOptions {
   double min_edge_contrast = 8.0;
   // Low (hysteresis) threshold as a fraction of the high one. Lower links edges across weak parts.
   double canny_low_ratio = 0.4;
+  // Local thresholds: the noise level is also measured in blocks of this many px (the median Sobel
+  // magnitude of each block), and where a block is plainer than the image as a whole its
+  // gradients are scaled up before Canny (a gain smooth between block centres, >= 1) so that its
+  // thresholds follow its own noise level, not the image's: a door leaf whose edges are 5-15
+  // grey-level steps beside a stone wall whose texture puts the global threshold at a 40-level
+  // step. Refinement divides its minimum gradient by the same gain. 0 switches this off (the
+  // global thresholds alone). Without a calibration `uncalibrated_local_threshold_block` instead.
+  int local_threshold_block = 0;
+  int uncalibrated_local_threshold_block = 0;
+  // Largest gain of the local thresholds (the global threshold over the local one).
+  double local_threshold_max_gain = 4.0;
 
   // --- 2. segments ---
   // Shortest segment kept [fraction of the image diagonal]. Longer ignores small clutter and small
