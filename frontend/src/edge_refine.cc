@@ -134,8 +134,7 @@ bool SampleSide(const EdgeProbe& probe, const Seg* sg_side, const Vec2& P, const
     Vec2 e;
     double gradient;
     int sg;
-    if (!probe.Peak(p, n, probe.MinGradientAt(p, min_gradient), &e, &gradient, &sg, want_sign))
-      continue;
+    if (!probe.Peak(p, n, min_gradient, &e, &gradient, &sg, want_sign)) continue;
     (sg > 0 ? s->pos : s->neg)++;
     s->on_path += std::abs(n.dot(e - p)) <= 1.0;
     s->pts.push_back(e);
@@ -311,8 +310,7 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
   // The coarse pass of the texture hypotheses: the same probe with a wider search.
   RectDetectorOptions wide = o;
   wide.search_px = std::max(o.search_px, o.texture_search_px);
-  EdgeProbe wide_probe(probe.smooth, probe.cam, wide);
-  wide_probe.gain = probe.gain;
+  const EdgeProbe wide_probe(probe.smooth, probe.cam, wide);
   for (Quad& q : quads) {
     const RectangleTest pre = BestRectangleTest(q.c, Ks);
     if (!pre.valid || pre.abs_cos > std::min(1.0, 2.0 * o.max_abs_cos)) continue;
@@ -328,9 +326,10 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
       refined.push_back(q);
       continue;
     }
-    // A texture hypothesis whose corners are too far off for the usual search: a coarse pass
-    // first (with the usual pass first, the board's outline is kept where that pass finds it: the
-    // wide search also reaches the pattern's own edges next to the outline).
+    // A texture hypothesis the usual search does not refine (its corners, scaled up from the
+    // averaged map, are up to ~4 px off): a coarse pass, then the usual one. Only as a fallback:
+    // where the usual pass refines a checkerboard's outline, a coarse pass before it reaches the
+    // pattern's own edges next to the outline and loses it.
     q = hypothesis;
     if (q.texture && o.texture_search_px > o.search_px &&
         RefineQuad(wide_probe, segs, min_gradient, &rng, &q, &q.edges) &&

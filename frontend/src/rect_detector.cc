@@ -74,9 +74,6 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (detect_long_side < 0) os << "detect_long_side must be >= 0; ";
   if (texture_level < 0) os << "texture_level must be >= 0; ";
   if (!(texture_search_px >= 0.0)) os << "texture_search_px must be >= 0; ";
-  if (local_threshold_block < 0 || uncalibrated_local_threshold_block < 0)
-    os << "local_threshold_block must be >= 0; ";
-  if (!(local_threshold_max_gain >= 1.0)) os << "local_threshold_max_gain must be >= 1; ";
   if (!(focal_prior_min > 0.0 && focal_prior_max >= focal_prior_min))
     os << "focal_prior_min must be positive and <= focal_prior_max; ";
   if (reach_failures_allowed < 0 || uncalibrated_reach_failures_allowed < 0 ||
@@ -192,7 +189,6 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
     uncalibrated.reach_either_polarity = options.uncalibrated_reach_either_polarity;
     uncalibrated.door_reach_failures_allowed = options.uncalibrated_door_reach_failures_allowed;
     uncalibrated.prefer_door_leaf = options.uncalibrated_prefer_door_leaf;
-    uncalibrated.local_threshold_block = options.uncalibrated_local_threshold_block;
   }
   const RectDetectorOptions& o = camera ? options : uncalibrated;
   RectDetector::Result res;
@@ -273,8 +269,7 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
 
   // 4. refinement (with a cheap rectangle pre-test at twice the tolerance on the hypothesis
   // corners). Sobel magnitude ≈ 8 x (grey levels per px).
-  ri::EdgeProbe probe(edges.smooth, cam, o);
-  probe.gain = &edges.gain;
+  const ri::EdgeProbe probe(edges.smooth, cam, o);
   std::vector<ri::Quad> refined = ri::RefineHypotheses(quads, segs, probe, Ks, res.canny_low / 8.0);
   res.refined = static_cast<int>(refined.size());
   res.times.Add("refine", sw.Lap());

@@ -172,49 +172,6 @@ void CannyThresholds(const cv::Mat& dx, const cv::Mat& dy, const RectDetectorOpt
   *low = o.canny_low_ratio * *high;
 }
 
-// Local thresholds (RectDetectorOptions::local_threshold_block): the gain of each block of B x B
-// px is the global high threshold over the block's own, max(multiple x σ_block,
-// 4 x min_contrast) with σ_block from the block's median Sobel magnitude (every 2nd pixel of every
-// 2nd row), clamped to [1, local_threshold_max_gain]; bilinear between block centres.
-cv::Mat LocalThresholdGain(const cv::Mat& dx, const cv::Mat& dy, const RectDetectorOptions& o,
-                           int block, double high) {
-  const int nbx = (dx.cols + block - 1) / block, nby = (dx.rows + block - 1) / block;
-  cv::Mat blocks(nby, nbx, CV_32F);
-  constexpr int kBins = 1024;
-  std::array<int, kBins> hist;
-  for (int by = 0; by < nby; ++by)
-    for (int bx = 0; bx < nbx; ++bx) {
-      hist.fill(0);
-      int n = 0;
-      const int y1 = std::min(dx.rows, (by + 1) * block), x1 = std::min(dx.cols, (bx + 1) * block);
-      for (int y = by * block; y < y1; y += 2) {
-        const int16_t* gx_row = dx.ptr<int16_t>(y);
-        const int16_t* gy_row = dy.ptr<int16_t>(y);
-        for (int x = bx * block; x < x1; x += 2) {
-          const int gx = gx_row[x], gy = gy_row[x];
-          ++hist[std::min(kBins - 1,
-                          static_cast<int>(std::sqrt(static_cast<double>(gx * gx + gy * gy))))];
-          ++n;
-        }
-      }
-      int acc = 0, median = 0;
-      for (int b = 0; b < kBins; ++b) {
-        acc += hist[b];
-        if (2 * acc >= n) {
-          median = b;
-          break;
-        }
-      }
-      const double local =
-          std::max(o.canny_noise_multiple * (median + 0.5) / 1.177, 4.0 * o.min_edge_contrast);
-      blocks.at<float>(by, bx) =
-          static_cast<float>(std::clamp(high / local, 1.0, o.local_threshold_max_gain));
-    }
-  cv::Mat gain;
-  cv::resize(blocks, gain, cv::Size(nbx * block, nby * block), 0.0, 0.0, cv::INTER_LINEAR);
-  return gain(cv::Rect(0, 0, dx.cols, dx.rows)).clone();
-}
-
 // Light smoothing (σ = 1 px) against pixel noise, Sobel, Canny with data-driven thresholds. The
 // Sobel gradients are computed once (what cv::Canny would compute inside: 3x3, replicated border)
 // and serve both the threshold statistics and Canny.
@@ -223,21 +180,6 @@ EdgeImages DetectEdges(const cv::Mat& gray, const RectDetectorOptions& o) {
   out.smooth = EdgeRefineImage(gray);
   cv::spatialGradient(out.smooth, out.dx, out.dy, 3, cv::BORDER_REPLICATE);
   CannyThresholds(out.dx, out.dy, o, &out.canny_low, &out.canny_high);
-  const int block = o.local_threshold_block;
-  if (block > 0 && gray.cols >= 2 * block && gray.rows >= 2 * block) {
-    out.gain = LocalThresholdGain(out.dx, out.dy, o, block, out.canny_high);
-    // Canny on the gradients times the gain (a smooth field: the non-maximum suppression across
-    // an edge is unchanged); dx, dy themselves stay as measured.
-    cv::Mat gx, gy;
-    out.dx.convertTo(gx, CV_32F);
-    out.dy.convertTo(gy, CV_32F);
-    cv::multiply(gx, out.gain, gx);
-    cv::multiply(gy, out.gain, gy);
-    gx.convertTo(gx, CV_16S);
-    gy.convertTo(gy, CV_16S);
-    cv::Canny(gx, gy, out.edges, out.canny_low, out.canny_high, true);
-    return out;
-  }
   cv::Canny(out.dx, out.dy, out.edges, out.canny_low, out.canny_high, true);
   return out;
 }

@@ -9,7 +9,6 @@
 //   rect_suppress.cc  6. duplicates, nesting, bright margins, containment
 #pragma once
 
-#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -146,7 +145,8 @@ struct Quad {
   bool relaxed = false;
   // A side that may lack edge support (a door hypothesis' bottom, see FindDoorQuads); -1: none.
   int weak_side = -1;
-  // A texture hypothesis (RectDetectorOptions::texture_level): refined coarsely first.
+  // A texture hypothesis (RectDetectorOptions::texture_level): a coarse refinement when the usual
+  // one fails; texture_reach_failures_any_corner in the L-corner tests.
   bool texture = false;
 };
 
@@ -162,25 +162,12 @@ struct EdgeProbe {
   const RectDetectorOptions& o;
   int m;  // samples each side of p
   mutable std::vector<double> prof;
-  // The edge stage's local threshold gain (EdgeImages::gain) or null: refinement's minimum
-  // gradient at a point is divided by it (MinGradientAt).
-  const cv::Mat* gain = nullptr;
   EdgeProbe(const cv::Mat& s, const PinholeRadtan* c, const RectDetectorOptions& opt)
       : smooth(s),
         cam(c && c->HasDistortion() ? c : nullptr),
         o(opt),
         m(static_cast<int>(std::lround(opt.search_px / opt.search_step_px))),
         prof(2 * m + 1) {}
-
-  // The minimum gradient for an edge point near undistorted p: `min_gradient` over the local
-  // threshold gain there (1 without local thresholds).
-  double MinGradientAt(const Vec2& p, double min_gradient) const {
-    if (!gain || gain->empty()) return min_gradient;
-    const Vec2 d = cam ? cam->DistortPixel(p) : p;
-    const int x = std::clamp(static_cast<int>(std::lround(d.x())), 0, gain->cols - 1);
-    const int y = std::clamp(static_cast<int>(std::lround(d.y())), 0, gain->rows - 1);
-    return min_gradient / gain->at<float>(y, x);
-  }
 
   // Whether a search at undistorted p lies wholly inside the image (an edge could have been found).
   bool Searchable(const Vec2& p) const {
@@ -245,9 +232,6 @@ void CannyThresholds(const cv::Mat& dx, const cv::Mat& dy, const RectDetectorOpt
 struct EdgeImages {
   cv::Mat smooth, dx, dy, edges;
   double canny_low = 0.0, canny_high = 0.0;
-  // Local thresholds (RectDetectorOptions::local_threshold_block): the gain applied to the
-  // gradients before Canny (CV_32F, >= 1, the image's size); empty when off.
-  cv::Mat gain;
 };
 EdgeImages DetectEdges(const cv::Mat& gray, const RectDetectorOptions& o);
 
@@ -336,8 +320,8 @@ double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int r
 bool IsDoorShaped(const RectDetectorOptions& o, const Quad& q);
 // Some corner is not an L-corner. `door_shaped` allows the door rule (door_reach_failures_allowed);
 // `relaxed` (optional) tells whether the quad passed only by it or by a short end at a corner
-// other than the lowest (reach_failures_any_corner); `texture` (a texture hypothesis) allows that
-// short end whatever the quad's size.
+// other than the lowest (reach_failures_any_corner); `texture` (a texture hypothesis) allows
+// texture_reach_failures_any_corner short ends whatever the quad's size.
 bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges,
                   bool door_shaped = false, bool* relaxed = nullptr, bool texture = false);
 // Every corner an L-corner (true when the L-corner tests are switched off).

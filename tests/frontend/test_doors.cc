@@ -117,9 +117,6 @@ TEST(RealPhotos, DoorsDevSet) {
       if (k == "reach_start_px") opt.reach_start_px = v;
       if (k == "ransac_inlier_px") opt.ransac_inlier_px = v;
       if (k == "container_outside_frac") opt.uncalibrated_container_outside_frac = v;
-      if (k == "local_threshold_block")
-        opt.uncalibrated_local_threshold_block = static_cast<int>(v);
-      if (k == "local_threshold_max_gain") opt.local_threshold_max_gain = v;
     }
   }
   const RectDetector det(opt);

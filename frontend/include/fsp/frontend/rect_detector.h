@@ -101,17 +101,6 @@ struct RectDetectorOptions {
   double min_edge_contrast = 8.0;
   // Low (hysteresis) threshold as a fraction of the high one. Lower links edges across weak parts.
   double canny_low_ratio = 0.4;
-  // Local thresholds: the noise level is also measured in blocks of this many px (the median Sobel
-  // magnitude of each block), and where a block is plainer than the image as a whole its
-  // gradients are scaled up before Canny (a gain smooth between block centres, >= 1) so that its
-  // thresholds follow its own noise level, not the image's: a door leaf whose edges are 5-15
-  // grey-level steps beside a stone wall whose texture puts the global threshold at a 40-level
-  // step. Refinement divides its minimum gradient by the same gain. 0 switches this off (the
-  // global thresholds alone). Without a calibration `uncalibrated_local_threshold_block` instead.
-  int local_threshold_block = 0;
-  int uncalibrated_local_threshold_block = 0;
-  // Largest gain of the local thresholds (the global threshold over the local one).
-  double local_threshold_max_gain = 4.0;
 
   // --- 2. segments ---
   // Shortest segment kept [fraction of the image diagonal]. Longer ignores small clutter and small
