@@ -82,8 +82,10 @@ struct RectDetectorOptions {
   // (search_px) does not refine: its corners, scaled up from the averaged map, are up to ~4 px
   // off; the usual pass follows the coarse one. (Coarse first for every texture hypothesis lost
   // the board where the usual pass alone finds it: the wide search also reaches the pattern's
-  // own edges.) 0: the usual pass only.
-  double texture_search_px = 6.0;
+  // own edges.) Wider reaches the smeared edges of a motion-blurred poster: its tracks restarted
+  // in the rendered blur clip (id switches 6 at 6 px, 1 at 5 px, none at 4.5 px or without).
+  // 0: the usual pass only. See the front end's README for the measurements.
+  double texture_search_px = 4.5;
   // Side ends of a texture hypothesis that may fall short of their corner in the corner reach test
   // (any corner, any size; see reach_failures_any_corner): a checkerboard's dark corner square
   // next to its thin white margin has the stronger edge ~2 px inside the outline. In-flight EuRoC
