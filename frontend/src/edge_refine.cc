@@ -307,6 +307,10 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
   const RectDetectorOptions& o = probe.o;
   std::mt19937 rng(o.seed);
   std::vector<Quad> refined;
+  // The coarse pass of the texture hypotheses: the same probe with a wider search.
+  RectDetectorOptions wide = o;
+  wide.search_px = std::max(o.search_px, o.texture_search_px);
+  const EdgeProbe wide_probe(probe.smooth, probe.cam, wide);
   for (Quad& q : quads) {
     const RectangleTest pre = BestRectangleTest(q.c, Ks);
     if (!pre.valid || pre.abs_cos > std::min(1.0, 2.0 * o.max_abs_cos)) continue;
@@ -317,7 +321,20 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
     const double reach_out = (std::max(o.container_outside_frac, 0.0) + 0.2) * side +
                              2.0 * o.search_px + o.max_corner_outside_px;
     if (CornerOutside(q.c, probe.cam, probe.smooth.cols, probe.smooth.rows) > reach_out) continue;
-    if (RefineQuad(probe, segs, min_gradient, &rng, &q, &q.edges)) refined.push_back(q);
+    const Quad hypothesis = q;
+    if (RefineQuad(probe, segs, min_gradient, &rng, &q, &q.edges)) {
+      refined.push_back(q);
+      continue;
+    }
+    // A texture hypothesis the usual search does not refine (its corners, scaled up from the
+    // averaged map, are up to ~4 px off): a coarse pass, then the usual one. Only as a fallback:
+    // where the usual pass refines a checkerboard's outline, a coarse pass before it reaches the
+    // pattern's own edges next to the outline and loses it.
+    q = hypothesis;
+    if (q.texture && o.texture_search_px > o.search_px &&
+        RefineQuad(wide_probe, segs, min_gradient, &rng, &q, &q.edges) &&
+        RefineQuad(probe, segs, min_gradient, &rng, &q, &q.edges))
+      refined.push_back(q);
   }
   return refined;
 }

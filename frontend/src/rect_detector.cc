@@ -73,11 +73,13 @@ bool RectDetectorOptions::Check(std::string* why) const {
     os << "door_min_aspect must be >= 0 and <= door_max_aspect; ";
   if (detect_long_side < 0) os << "detect_long_side must be >= 0; ";
   if (texture_level < 0) os << "texture_level must be >= 0; ";
+  if (!(texture_search_px >= 0.0)) os << "texture_search_px must be >= 0; ";
   if (!(focal_prior_min > 0.0 && focal_prior_max >= focal_prior_min))
     os << "focal_prior_min must be positive and <= focal_prior_max; ";
   if (reach_failures_allowed < 0 || uncalibrated_reach_failures_allowed < 0 ||
       reach_failures_any_corner < 0 || uncalibrated_reach_failures_any_corner < 0 ||
-      door_reach_failures_allowed < 0 || uncalibrated_door_reach_failures_allowed < 0)
+      texture_reach_failures_any_corner < 0 || door_reach_failures_allowed < 0 ||
+      uncalibrated_door_reach_failures_allowed < 0)
     os << "reach_failures_allowed must be >= 0; ";
   if (!(uncalibrated_container_outside_frac >= 0.0))
     os << "uncalibrated_container_outside_frac must be >= 0; ";
@@ -162,6 +164,7 @@ std::vector<rect_internal::Quad> TextureHypotheses(const RectDetectorOptions& o,
   const double min_side = o.min_side_frac * diag;
   for (const ri::Quad& lq : ri::FindQuads(ri::FindJunctions(segs, o), min_side, o.max_hypotheses)) {
     ri::Quad q;
+    q.texture = true;
     for (int i = 0; i < 4; ++i) {
       const Vec2 p = cam ? cam->DistortPixel(lq.c[i]) : lq.c[i];
       q.c[i] = camera.UndistortPixel((p + Vec2(0.5, 0.5)) * k - Vec2(0.5, 0.5));

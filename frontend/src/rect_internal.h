@@ -145,6 +145,9 @@ struct Quad {
   bool relaxed = false;
   // A side that may lack edge support (a door hypothesis' bottom, see FindDoorQuads); -1: none.
   int weak_side = -1;
+  // A texture hypothesis (RectDetectorOptions::texture_level): a coarse refinement when the usual
+  // one fails; texture_reach_failures_any_corner in the L-corner tests.
+  bool texture = false;
 };
 
 // One sub-pixel edge point: the 1-D gradient peak on the (smoothed, distorted) image along the
@@ -317,9 +320,10 @@ double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int r
 bool IsDoorShaped(const RectDetectorOptions& o, const Quad& q);
 // Some corner is not an L-corner. `door_shaped` allows the door rule (door_reach_failures_allowed);
 // `relaxed` (optional) tells whether the quad passed only by it or by a short end at a corner
-// other than the lowest (reach_failures_any_corner).
+// other than the lowest (reach_failures_any_corner); `texture` (a texture hypothesis) allows
+// texture_reach_failures_any_corner short ends whatever the quad's size.
 bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges,
-                  bool door_shaped = false, bool* relaxed = nullptr);
+                  bool door_shaped = false, bool* relaxed = nullptr, bool texture = false);
 // Every corner an L-corner (true when the L-corner tests are switched off).
 bool IsLCornered(const EdgeProbe& probe, const Quad& q, bool* relaxed = nullptr);
 bool IsBrightMargin(const cv::Mat& smooth, const PinholeRadtan* cam, const Corners& outer,

@@ -233,7 +233,7 @@ double CornerOutside(const Corners& c, const PinholeRadtan* cam, int cols, int r
 // quad closed by a line a little beyond the object, such as the outer edge of a tag's white
 // margin with the black square's other three sides).
 bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<SideEdge, 4>& edges,
-                  bool door_shaped, bool* relaxed) {
+                  bool door_shaped, bool* relaxed, bool texture) {
   const RectDetectorOptions& o = probe.o;
   // The ends at the lowest corner in the image (a door's bottom in shadow, on the floor) may fail
   // the reach test, at most `reach_failures_allowed` of them, and besides those at most
@@ -258,9 +258,16 @@ bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<Sid
   // black square, a radiator closed by the lower edge of its shadow) that is clear of the image
   // border by `continuation_frac` x its shortest side (near the border quads are closed by lines
   // of what runs out of view: a window cut off by the border, closed by its frame's inner edge).
+  // A texture hypothesis (a patterned rectangle, see RectDetectorOptions::texture_level) of any
+  // size may have `texture_reach_failures_any_corner` short ends: where a dark square of a
+  // checkerboard meets its thin white margin at a corner, the strongest edge next to the corner is
+  // the square's, ~2 px inside the outline. Such a hypothesis is the outline of one bright block of
+  // the averaged gradient, not a line a little beyond the object that closes it.
   int any_corner = o.reach_failures_any_corner;
   const double shortest = ShortestSide(c);
-  if (shortest < o.any_corner_min_side_frac * std::hypot(probe.smooth.cols, probe.smooth.rows))
+  if (texture)
+    any_corner = std::max(any_corner, o.texture_reach_failures_any_corner);
+  else if (shortest < o.any_corner_min_side_frac * std::hypot(probe.smooth.cols, probe.smooth.rows))
     any_corner = 0;
   if (any_corner > 0) {
     const double clear = o.continuation_frac * shortest;
@@ -323,7 +330,7 @@ bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<Sid
 bool IsLCornered(const EdgeProbe& probe, const Quad& q, bool* relaxed) {
   if (relaxed) *relaxed = false;
   return !(probe.o.max_side_continuation < 1.0 || probe.o.min_corner_reach > 0.0) ||
-         !HasTJunction(probe, q.c_grouping, q.edges, IsDoorShaped(probe.o, q), relaxed);
+         !HasTJunction(probe, q.c_grouping, q.edges, IsDoorShaped(probe.o, q), relaxed, q.texture);
 }
 
 // Bright margin test (RectDetectorOptions::prefer_inner_of_bright_margin) for an outer quad and a

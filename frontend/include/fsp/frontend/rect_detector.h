@@ -78,6 +78,19 @@ struct RectDetectorOptions {
   // inner edge of the opposite polarity at black ones, broken at every square) is one bright
   // block there with a clean outline. 0 switches this off.
   int texture_level = 4;
+  // Search half-width [px] of a coarse refinement of a texture hypothesis that the usual one
+  // (search_px) does not refine: its corners, scaled up from the averaged map, are up to ~4 px
+  // off; the usual pass follows the coarse one. (Coarse first for every texture hypothesis lost
+  // the board where the usual pass alone finds it: the wide search also reaches the pattern's
+  // own edges.) Wider reaches the smeared edges of a motion-blurred poster: its tracks restarted
+  // in the rendered blur clip (id switches 6 at 6 px, 1 at 5 px, none at 4.5 px or without).
+  // 0: the usual pass only. See the front end's README for the measurements.
+  double texture_search_px = 4.5;
+  // Side ends of a texture hypothesis that may fall short of their corner in the corner reach test
+  // (any corner, any size; see reach_failures_any_corner): a checkerboard's dark corner square
+  // next to its thin white margin has the stronger edge ~2 px inside the outline. In-flight EuRoC
+  // frames: with 1, the board in 6 of 10 frames; with 2, in 7.
+  int texture_reach_failures_any_corner = 2;
 
   // --- 1. edges ---
   // High Canny threshold as a multiple of the gradient noise level, estimated as the median Sobel
