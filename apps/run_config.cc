@@ -159,6 +159,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.reid_min_similarity_predicted", &f.reid_min_similarity_predicted, kNonNegative},
       {"frontend.reid_reject_frac", &f.reid_reject_frac, kNonNegative},
       {"frontend.reid_map_decides", &f.reid_map_decides, kAny},
+      {"frontend.reacquire_predicted", &f.reacquire_predicted, kAny},
       {"frontend.correct_px", &f.correct_px, kNonNegative},
       {"frontend.border_margin_px", &f.border_margin_px, kNonNegative},
       {"frontend.correct_tags", &f.correct_tags, kAny},

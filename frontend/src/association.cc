@@ -272,4 +272,39 @@ void FrontEnd::Impl::StartOrResume(const std::vector<Detection>& dets,
   }
 }
 
+// Dormant objects the map predicts wholly in view that no detection resumed: each is looked for at
+// its predicted corners (refined on the edges) and resumes there when it looks like itself.
+void FrontEnd::Impl::ReacquirePredicted(FrameWork* w) {
+  const FrontEndOptions& o = w->o;
+  if (!o.reacquire_predicted || !w->prediction.map_known) return;
+  for (const auto& [id, pc] : w->prediction.objects) {
+    const auto it = objects.find(id);
+    if (it == objects.end() || it->second.active || !it->second.confirmed) continue;
+    bool inside = true;
+    for (const Vec2& c : pc)
+      inside = inside && camera.InImage(camera.DistortPixel(c), o.border_margin_px);
+    if (!inside) continue;
+    // Not where a live object is (a nested outline, a look-alike tracked there).
+    bool on_live = false;
+    for (const auto& [lid, lc] : w->tracked)
+      on_live = on_live || InsideConvex(lc, Centroid(pc)) || InsideConvex(pc, Centroid(lc));
+    for (const auto& [lid, lc] : w->from_detection)
+      on_live = on_live || InsideConvex(lc, Centroid(pc)) || InsideConvex(pc, Centroid(lc));
+    if (on_live) continue;
+    Corners corners;
+    double similarity = -1.0;
+    if (!tracker.Reacquire(id, w->gray, pc, &corners, &similarity) ||
+        similarity < o.reid_min_similarity_predicted ||
+        MeanCornerDistanceBestShift(pc, corners) > o.reid_gate_frac * ShortestSide(pc) ||
+        !tracker.Resume(id, w->gray, corners))
+      continue;
+    ++w->result.reidentified;
+    ObjectInfo& info = it->second;
+    info.active = true;
+    info.last = corners;
+    w->from_detection[id] = corners;
+    w->score[id] = similarity;
+  }
+}
+
 }  // namespace fsp::frontend

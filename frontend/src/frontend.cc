@@ -298,6 +298,7 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
   m.EndPlainTracksOnTags(dets, &w);
   m.MatchTracks(dets, &used, &w);
   m.StartOrResume(dets, used, &w);
+  m.ReacquirePredicted(&w);
   w.result.times.Add("associate", sw.Lap());
   m.Emit(frame.t_ns, &w);
   ++m.frame_index;

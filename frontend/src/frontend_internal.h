@@ -118,6 +118,7 @@ struct FrontEnd::Impl {
   void Correct(int id, const Detection& d, FrameWork* w);
   void StartOrResume(const std::vector<Detection>& dets, const std::vector<bool>& used,
                      FrameWork* w);
+  void ReacquirePredicted(FrameWork* w);
 };
 
 }  // namespace fsp::frontend

@@ -106,6 +106,13 @@ struct FrontEndOptions {
   // ...and of two look-alikes the one the map predicts at the detection is taken when the other is
   // not predicted there (the margin rule above is then not applied).
   bool reid_map_decides = true;
+  // Once the map is known, a dormant object the back end predicts wholly in view (corners at least
+  // border_margin_px inside the image, clear of live objects) that no detection resumed is looked
+  // for at its predicted corners: refined on the edges (ObjectTracker::Reacquire), within
+  // reid_gate_frac of the prediction and with an appearance of at least
+  // reid_min_similarity_predicted, it resumes there under its old id. A returning object the
+  // detector does not report (a poster narrower than its minimum side) is picked up.
+  bool reacquire_predicted = true;
   // A detection matched to a track whose corners differ from the track's by more than this (largest
   // corner distance) [px] replaces the track's corners (the tracker resumes from them, keeping its
   // model): the detector's corners are the better measurement, and a track that slid onto a nearby
