@@ -73,7 +73,7 @@ int FrontEnd::Impl::Reidentify(const cv::Mat& gray, const Detection& d,
       elsewhere = dist > o.reid_reject_frac * ShortestSide(pc);
     }
     if (elsewhere) continue;
-    if (prediction.map_known && !near && !whole) continue;
+    if (prediction.map_known && !near && (!whole || o.reid_only_where_predicted)) continue;
     double object_best = -2.0;
     Corners object_corners = d.corners_undistorted;
     for (int r = 0; r < orders; ++r) {

@@ -106,6 +106,13 @@ struct FrontEndOptions {
   // ...and of two look-alikes the one the map predicts at the detection is taken when the other is
   // not predicted there (the margin rule above is then not applied).
   bool reid_map_decides = true;
+  // ...and once the map is known, a dormant object is re-identified only where the map predicts it
+  // (within reid_gate_frac): a look-alike of another shape whose prediction lies within
+  // reid_reject_frac (a framed cabinet beside a framed door on the same wall) is not taken. Default
+  // room from pixels, seeds 1/2/3: id switches 3/3/4 -> 1/2/2, returns 51/52/52 -> 53/53/53 of 54,
+  // boxes out of view 3/0/0 -> 0. false: a detection away from the border is also compared by
+  // appearance with dormant objects predicted up to reid_reject_frac from it.
+  bool reid_only_where_predicted = true;
   // Once the map is known, a dormant object the back end predicts wholly in view (corners at least
   // border_margin_px inside the image, clear of live objects) that no detection resumed is looked
   // for at its predicted corners: refined on the edges (ObjectTracker::Reacquire), within
