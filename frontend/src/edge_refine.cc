@@ -413,8 +413,8 @@ bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* corners) {
       inside.push_back(std::abs(v3 - grey_band));
     }
   }
-  if (static_cast<int>(outside.size()) < kPositions / 2 ||
-      Median(outside) > 0.25 * frame_contrast || Median(inside) < 0.5 * frame_contrast)
+  if (static_cast<int>(outside.size()) < kPositions / 2 || Median(outside) > 0.4 * frame_contrast ||
+      Median(inside) < 0.5 * frame_contrast)
     return false;
   // The outline: side j's line moved out by w_j, onto an edge found within 1.5 px of it.
   Line line;
