@@ -293,16 +293,24 @@ void FrontEnd::Impl::ReacquirePredicted(FrameWork* w) {
     if (on_live) continue;
     Corners corners;
     double similarity = -1.0;
-    if (!tracker.Reacquire(id, w->gray, pc, &corners, &similarity) ||
-        similarity < o.reid_min_similarity_predicted ||
-        MeanCornerDistanceBestShift(pc, corners) > o.reid_gate_frac * ShortestSide(pc) ||
-        !tracker.Resume(id, w->gray, corners))
+    const bool refined =
+        tracker.Reacquire(id, w->gray, pc, &corners, &similarity) &&
+        MeanCornerDistanceBestShift(pc, corners) <= o.reid_gate_frac * ShortestSide(pc);
+    if (!refined) {
+      // No edges where it is predicted (a thin frame blurred into one edge of the other polarity
+      // on a small view): the prediction itself, when the object looks like itself there. The
+      // track resumes from it, but this frame reports nothing: the prediction is the back end's
+      // own estimate, not a measurement.
+      corners = pc;
+      similarity = tracker.Similarity(id, w->gray, pc).value_or(-1.0);
+    }
+    if (similarity < o.reid_min_similarity_predicted || !tracker.Resume(id, w->gray, corners))
       continue;
     ++w->result.reidentified;
     ObjectInfo& info = it->second;
     info.active = true;
     info.last = corners;
-    w->from_detection[id] = corners;
+    if (refined) w->from_detection[id] = corners;
     w->score[id] = similarity;
   }
 }
