@@ -302,10 +302,10 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
 }
 
 // Frame outline (RectDetectorOptions::frame_band_max_frac). Along each side, at kPositions points
-// of its middle, the grey 1.5 px inside and outside (`Across`); a side's contrast is the median
-// inside - outside. The band on the opposite side: the 1-D profile inward from its outline, the
-// strongest step of the odd side's polarity from 1 px on (a parabola through the steps for its
-// sub-pixel place).
+// of its middle 70 %, the grey 1.5 px inside and outside; a side's contrast is the median of inside
+// - outside. The band on the opposite side: the 1-D profile inward from its outline, the strongest
+// step of the odd side's polarity from 1 px on (a parabola through the steps for its sub-pixel
+// place). All on the smoothed image the refinement reads (distorted), at undistorted points.
 namespace {
 
 constexpr int kPositions = 12;
@@ -321,7 +321,7 @@ bool GreyAt(const EdgeProbe& probe, const Vec2& p, double* v) {
   return Bilinear(probe.smooth, d.x(), d.y(), v);
 }
 
-// Point t in (0, 1) along side P -> Q, and the unit normal into the quad (towards `centre`).
+// The unit normal of side P -> Q pointing into the quad (towards `centre`).
 Vec2 InwardNormal(const Vec2& P, const Vec2& Q, const Vec2& centre) {
   const Vec2 u = (Q - P).normalized();
   Vec2 n(-u.y(), u.x());
@@ -329,6 +329,7 @@ Vec2 InwardNormal(const Vec2& P, const Vec2& Q, const Vec2& centre) {
   return n;
 }
 
+// The k-th sample position along a side, as a fraction of it from P.
 double PositionT(int k) {
   return 0.15 + 0.7 * (k + 0.5) / kPositions;
 }
