@@ -17,8 +17,9 @@
 //     it starts nothing (a tag's identity is its id).
 //  4. emit: one observation per confirmed object tracked in this frame with its four corners in
 //  view;
-//  5. re-acquire: a dormant object the back end's map predicts wholly in view that no detection
-//     resumed is looked for at its predicted corners and resumes there (`reacquire_predicted`).
+//  5. re-acquire (after 3, before the emission of 4): a dormant object the map predicts wholly in
+//     view that no detection resumed is looked for at its predicted corners and resumes there
+//     (`reacquire_predicted`).
 //
 // Identities: an AprilTag's id is its object id; plain rectangles get ids from `first_rect_id` up,
 // never reused. Classes: the most frequent class guess of an object's detections.
