@@ -120,8 +120,10 @@ struct FrontEndOptions {
   // border_margin_px inside the image, clear of live objects) that no detection resumed is looked
   // for at its predicted corners: refined on the edges (ObjectTracker::Reacquire), within
   // reid_gate_frac of the prediction and with an appearance of at least
-  // reid_min_similarity_predicted, it resumes there under its old id. A returning object the
-  // detector does not report (a poster narrower than its minimum side) is picked up.
+  // reid_min_similarity_predicted, it resumes there under its old id. Where no edge is found (a
+  // thin frame blurred on a small view), at the predicted corners when the appearance there passes
+  // the same bar, reporting from the next frame (the prediction is no measurement). A returning
+  // object the detector does not report (a poster narrower than its minimum side) is picked up.
   bool reacquire_predicted = true;
   // A detection matched to a track whose corners differ from the track's by more than this (largest
   // corner distance) [px] replaces the track's corners (the tracker resumes from them, keeping its
