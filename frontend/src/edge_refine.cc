@@ -301,6 +301,174 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
   return true;
 }
 
+// Frame outline (RectDetectorOptions::frame_band_max_frac). Along each side, at kPositions points
+// of its middle 70 %, the grey 1.5 px inside and outside; a side's contrast is the median of inside
+// - outside. The band on the opposite side: the 1-D profile inward from its outline, the strongest
+// step of the odd side's polarity from 1 px on (a parabola through the steps for its sub-pixel
+// place). All on the smoothed image the refinement reads (distorted), at undistorted points.
+namespace {
+
+constexpr int kPositions = 12;
+
+double Median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// Grey of the smoothed image at undistorted point p; false outside.
+bool GreyAt(const EdgeProbe& probe, const Vec2& p, double* v) {
+  const Vec2 d = probe.cam ? probe.cam->DistortPixel(p) : p;
+  return Bilinear(probe.smooth, d.x(), d.y(), v);
+}
+
+// The unit normal of side P -> Q pointing into the quad (towards `centre`).
+Vec2 InwardNormal(const Vec2& P, const Vec2& Q, const Vec2& centre) {
+  const Vec2 u = (Q - P).normalized();
+  Vec2 n(-u.y(), u.x());
+  if (n.dot(centre - 0.5 * (P + Q)) < 0.0) n = -n;
+  return n;
+}
+
+// The k-th sample position along a side, as a fraction of it from P.
+double PositionT(int k) {
+  return 0.15 + 0.7 * (k + 0.5) / kPositions;
+}
+
+}  // namespace
+
+bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* corners) {
+  const RectDetectorOptions& o = probe.o;
+  if (!(o.frame_band_max_frac > 0.0)) return false;
+  Corners& c = *corners;
+  const Vec2 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+  std::array<double, 4> contrast{};
+  std::array<int, 4> pol{};
+  for (int i = 0; i < 4; ++i) {
+    const Vec2 P = c[(i + 3) % 4], Q = c[i], n = InwardNormal(P, Q, centre);
+    std::vector<double> diffs;
+    for (int k = 0; k < kPositions; ++k) {
+      const Vec2 b = P + PositionT(k) * (Q - P);
+      double vin, vout;
+      if (GreyAt(probe, b + 1.5 * n, &vin) && GreyAt(probe, b - 1.5 * n, &vout))
+        diffs.push_back(vin - vout);
+    }
+    if (static_cast<int>(diffs.size()) < kPositions / 2) return false;
+    contrast[i] = Median(diffs);
+    pol[i] = contrast[i] > 0.0 ? 1 : -1;
+  }
+  // The odd side: its inside brighter (darker) where the three others' is darker (brighter).
+  int j = -1;
+  for (int i = 0; i < 4; ++i)
+    if (pol[i] != pol[(i + 1) % 4] && pol[i] != pol[(i + 3) % 4]) j = i;
+  if (j < 0) return false;
+  const int opp = (j + 2) % 4;
+  // The band on the opposite side: from its outline inward to a step of side j's polarity.
+  const Vec2 Po = c[(opp + 3) % 4], Qo = c[opp], no = InwardNormal(Po, Qo, centre);
+  const double step = 0.5;
+  const double max_d = o.frame_band_max_frac * ShortestSide(c);
+  const int K = static_cast<int>(max_d / step);
+  if (K < 4) return false;
+  std::vector<double> widths, band, panel, prof(static_cast<size_t>(K + 2));
+  for (int k = 0; k < kPositions; ++k) {
+    const Vec2 b = Po + PositionT(k) * (Qo - Po);
+    bool ok = true;
+    for (int s = 0; s <= K + 1 && ok; ++s) ok = GreyAt(probe, b + (s * step) * no, &prof[s]);
+    if (!ok) continue;
+    int best = -1;
+    double best_d = 0.0;
+    for (int s = 2; s < K; ++s) {
+      const double d = pol[j] * (prof[s + 1] - prof[s - 1]);  // grey levels per px
+      if (d > best_d) {
+        best_d = d;
+        best = s;
+      }
+    }
+    if (best < 0 || best_d < 0.25 * std::abs(contrast[j])) continue;
+    const double dm = pol[j] * (prof[best] - prof[best - 2]);
+    const double dp = best + 2 <= K + 1 ? pol[j] * (prof[best + 2] - prof[best]) : best_d;
+    const double den = dm - 2.0 * best_d + dp;
+    const double delta = den < 0.0 ? std::clamp(0.5 * (dm - dp) / den, -0.5, 0.5) : 0.0;
+    widths.push_back((best + delta) * step);
+    band.push_back(prof[static_cast<size_t>(best / 2)]);
+    panel.push_back(prof[static_cast<size_t>(std::min(best + 3, K + 1))]);
+  }
+  if (static_cast<int>(widths.size()) < 2 * kPositions / 3) return false;
+  const double w_opp = Median(widths), grey_band = Median(band);
+  const double frame_contrast = std::abs(Median(panel) - grey_band);
+  int consistent = 0;
+  for (double w : widths) consistent += std::abs(w - w_opp) <= 1.0;
+  if (consistent < 2 * kPositions / 3) return false;
+  // Side j is a frame's inner edge: its contrast is the frame's, not a faint outline's.
+  if (std::abs(contrast[j]) < 0.5 * frame_contrast || frame_contrast < 16.0) return false;
+  // The band's width at side j and its grey outside side j (not inside it: there is the panel).
+  const Vec2 P = c[(j + 3) % 4], Q = c[j], n = InwardNormal(P, Q, centre);
+  const double w_j = w_opp * (Q - P).norm() / (Qo - Po).norm();
+  if (w_j < 1.0 || w_j > max_d) return false;
+  std::vector<double> outside, inside;
+  for (int k = 0; k < kPositions; ++k) {
+    const Vec2 b = P + PositionT(k) * (Q - P);
+    double v1, v2, v3;
+    if (GreyAt(probe, b - 0.3 * w_j * n, &v1) && GreyAt(probe, b - 0.7 * w_j * n, &v2) &&
+        GreyAt(probe, b + 0.5 * w_j * n, &v3)) {
+      outside.push_back(std::max(std::abs(v1 - grey_band), std::abs(v2 - grey_band)));
+      inside.push_back(std::abs(v3 - grey_band));
+    }
+  }
+  if (static_cast<int>(outside.size()) < kPositions / 2 || Median(outside) > 0.4 * frame_contrast ||
+      Median(inside) < 0.5 * frame_contrast)
+    return false;
+  // The outline: side j's line moved out by w_j, onto an edge found within 1.5 px of it.
+  Line line;
+  line.n = n;
+  line.c = n.dot(P) - w_j;
+  std::vector<Vec2> pts;
+  std::vector<double> wts;
+  for (int k = 0; k < kPositions; ++k) {
+    const Vec2 b = P + PositionT(k) * (Q - P) - w_j * n;
+    std::array<double, 9> v{};  // -2 .. +2 px along n, 0.5 px apart
+    bool ok = true;
+    for (int s = 0; s < 9 && ok; ++s) ok = GreyAt(probe, b + (0.5 * (s - 4)) * n, &v[s]);
+    if (!ok) continue;
+    int best = -1;
+    double best_d = 0.0;
+    for (int s = 1; s < 8; ++s) {
+      const double d = std::abs(v[s + 1] - v[s - 1]);
+      if (d > best_d) {
+        best_d = d;
+        best = s;
+      }
+    }
+    if (best <= 1 || best >= 7 || best_d < 2.0) continue;
+    pts.push_back(b + (0.5 * (best - 4)) * n);
+    wts.push_back(best_d);
+  }
+  if (static_cast<int>(pts.size()) >= 2 * kPositions / 3) {
+    std::vector<int> idx(pts.size());
+    for (size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<int>(i);
+    Line found;
+    if (FitLineTls(pts, wts, idx, &found)) {
+      if (found.n.dot(n) < 0.0) {
+        found.n = -found.n;
+        found.c = -found.c;
+      }
+      const double shift = std::abs(found.c - line.c);
+      if (found.n.dot(n) > std::cos(3.0 * M_PI / 180.0) && shift <= 1.5) line = found;
+    }
+  }
+  // New corners: the moved line with the two neighbouring sides' lines.
+  const int a = (j + 3) % 4, b = j;
+  const Line before = LineOf(MakeSeg(c[(j + 2) % 4], c[a]));
+  const Line after = LineOf(MakeSeg(c[b], c[(j + 1) % 4]));
+  Vec2 ca, cb;
+  if (!Intersect(before, line, &ca) || !Intersect(line, after, &cb)) return false;
+  Corners moved = c;
+  moved[a] = ca;
+  moved[b] = cb;
+  if (!IsConvex(moved)) return false;
+  c = moved;
+  return true;
+}
+
 std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<Seg>& segs,
                                    const EdgeProbe& probe, const std::vector<Mat3>& Ks,
                                    double min_gradient) {
@@ -377,6 +545,7 @@ EdgeRefinement RefineCornersOnEdges(const cv::Mat& smooth, const PinholeRadtan* 
   std::array<SideEdge, 4> edges;
   if (!RefineQuad(probe, {}, min_gradient, &rng, &q, &edges, want_sign)) return out;
   out.ok = true;
+  rect_internal::MoveOntoFrameOutline(probe, &q.c);
   out.corners_undistorted = q.c;
   out.support = q.score;
   for (int i = 0; i < 4; ++i) {

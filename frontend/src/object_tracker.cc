@@ -817,6 +817,20 @@ std::optional<double> ObjectTracker::Similarity(int id, const cv::Mat& gray,
   return visible >= impl_->o.min_visible ? ncc : -1.0;
 }
 
+bool ObjectTracker::Reacquire(int id, const cv::Mat& gray, const Corners& predicted,
+                              Corners* corners, double* similarity) {
+  impl_->CheckFrame(gray);
+  const auto it = impl_->objects.find(id);
+  if (it == impl_->objects.end() || !IsConvex(predicted)) return false;
+  for (const Vec2& c : predicted)
+    if (!impl_->camera.InImage(impl_->ToDistorted(c))) return false;
+  EdgeRefinement e;
+  if (!impl_->Refine(it->second, gray, predicted, true, &e)) return false;
+  *corners = e.corners_undistorted;
+  *similarity = Similarity(id, gray, *corners).value_or(-1.0);
+  return true;
+}
+
 bool ObjectTracker::Resume(int id, const cv::Mat& gray, const Corners& corners_undistorted) {
   impl_->CheckFrame(gray);
   const auto it = impl_->objects.find(id);

@@ -52,6 +52,8 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (ransac_iterations < 1) os << "ransac_iterations must be >= 1; ";
   if (!(min_side_support >= 0.0 && min_side_support <= 1.0))
     os << "min_side_support must be in [0, 1]; ";
+  if (!(frame_band_max_frac >= 0.0 && frame_band_max_frac <= 0.5))
+    os << "frame_band_max_frac must be in [0, 0.5]; ";
   if (!(max_side_continuation >= 0.0 && max_side_continuation <= 1.0))
     os << "max_side_continuation must be in [0, 1]; ";
   if (!(continuation_start_px >= 0.0)) os << "continuation_start_px must be >= 0; ";

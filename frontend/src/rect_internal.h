@@ -221,6 +221,10 @@ struct EdgeProbe {
   }
 };
 
+// RectDetectorOptions::frame_band_max_frac: moves the side of quad C (undistorted px, cyclic
+// order) that lies on a frame's inner edge out onto the frame's outline. Returns whether it did.
+bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* c);
+
 // ---- 1. edges (rect_edges.cc) ----
 
 // Canny thresholds (Sobel magnitude units) from the median gradient magnitude; see the definition.

@@ -457,7 +457,10 @@ std::vector<Detection> MakeDetections(const std::vector<Quad>& quads, const Edge
   for (const Quad& q : quads) {
     Detection det;
     det.corners_undistorted = q.c;
-    for (int i = 0; i < 4; ++i) det.corners_px[i] = cam ? cam->DistortPixel(q.c[i]) : q.c[i];
+    MoveOntoFrameOutline(probe, &det.corners_undistorted);
+    for (int i = 0; i < 4; ++i)
+      det.corners_px[i] =
+          cam ? cam->DistortPixel(det.corners_undistorted[i]) : det.corners_undistorted[i];
     det.score = q.score;
     if (probe.o.guess_class)
       det.object_class = GuessClass(probe.smooth, det.corners_px, q.aspect_w_h);

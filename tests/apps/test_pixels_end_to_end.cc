@@ -141,17 +141,17 @@ void PrintTracking(const char* label, const eval::FrontendMetrics& f) {
 // The tracker's clips (assets/scenes/clip_*.yaml), from pixels in window mode, scored against the
 // ground-truth corners. Zoom/roll: a poster zooms 0.51-1.97x, banks to +-45 deg in a sideways dash,
 // leaves the view for 35 frames and returns; a plain door, a window, a tag. Measured: success
-// 556/586 (0.949; 549, 0.937, before the detector ran while the map predicts a return), median
-// 0.153 px, no box out of view, 5/5 returns re-identified, 0 id switches.
-// The misses: a small poster whose detected outline is 2.7 px off the truth (the detector's; the
-// tracker follows it) and the tag re-acquired a few frames late after fast motion.
+// 577/581 (0.993; 553, 0.952, before the front end re-acquired dormant objects where the map
+// predicts them and put framed objects' sides on their outline; 549, 0.937, before the detector ran
+// while the map predicts a return), median 0.151 px, no box out of view, 5/5 returns
+// re-identified, 0 id switches.
 TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
   const fs::path clip = RenderedClip("clip_zoom_roll");
   const RunResult r = RunAndEvaluate(clip.string(), test::ScratchDir() / "run", clip);
   ASSERT_TRUE(r.metrics.frontend && r.metrics.frontend->success_rate);
   const eval::FrontendMetrics& f = *r.metrics.frontend;
   PrintTracking("zoom/roll", f);
-  EXPECT_GE(*f.success_rate, 0.94);
+  EXPECT_GE(*f.success_rate, 0.98);
   EXPECT_LE(f.corner_err_px.median, 0.3);
   EXPECT_LE(f.boxes_out_of_view, 2u);
   EXPECT_GE(f.returns, 4u);

@@ -56,5 +56,53 @@ TEST(EdgeRefine, FailsWhereThereIsNoRectangle) {
   EXPECT_FALSE(RefineCornersOnEdges(smooth, nullptr, elsewhere, 2.0, RectDetectorOptions()).ok);
 }
 
+// A framed object on a floor of its frame's grey (RectDetectorOptions::frame_band_max_frac): a
+// cabinet's dark frame (62) round a light panel (160) on a light wall (150-170), its bottom on a
+// dark floor (55). The bottom outline has a 7-grey-level step; the refinement finds the panel's
+// edge 6 px above it, and the frame seen on the top side puts it back on the outline.
+TEST(EdgeRefine, FramedObjectOnAFloorOfItsFramesGreyGetsItsOutline) {
+  // A rectangle turned by 0.57 deg, its panel inset by 6 px, the floor's edge on its bottom side.
+  const Vec2 u(220.3, -2.2), v(-2.2, -237.5);  // along the bottom, up the left side
+  const Vec2 s1(200.3, 360.4);
+  const Corners outline = {s1, s1 + u, s1 + u + v, s1 + v};
+  const Vec2 iu = u.normalized() * 6.0, iv = v.normalized() * 6.0;
+  const Corners panel = {s1 + iu + iv, s1 + u - iu + iv, s1 + u + v - iu - iv, s1 + v + iu - iv};
+  const double slope = u.y() / u.x();
+  const Corners floor = {Vec2(-1.0, 479.5), Vec2(640.0, 479.5),
+                         Vec2(640.0, s1.y() + slope * (640.0 - s1.x())),
+                         Vec2(-1.0, s1.y() + slope * (-1.0 - s1.x()))};
+  const cv::Mat framed = test::RenderQuads(640, 480, {{floor, 55}, {outline, 62}, {panel, 160}},
+                                           0.8, 2.0, /*seed=*/3, /*background=*/150);
+  const cv::Mat smooth = EdgeRefineImage(framed);
+  // Started on the panel's bottom edge (what the detector's segments give).
+  Corners start = outline;
+  start[0] = s1 + iv;
+  start[1] = s1 + u + iv;
+  RectDetectorOptions off;
+  off.frame_band_max_frac = 0.0;
+  const EdgeRefinement inner = RefineCornersOnEdges(smooth, nullptr, start, 2.0, off);
+  ASSERT_TRUE(inner.ok);
+  EXPECT_GT(MaxError(inner.corners_undistorted, outline), 5.0);  // without the rule: the panel's
+  const EdgeRefinement r = RefineCornersOnEdges(smooth, nullptr, start, 2.0, RectDetectorOptions());
+  ASSERT_TRUE(r.ok);
+  EXPECT_LT(MaxError(r.corners_undistorted, outline), 0.5)
+      << "bottom corners " << r.corners_undistorted[0].transpose() << ", "
+      << r.corners_undistorted[1].transpose();
+  // Started on the outline it stays there (the rule does not move an outline twice).
+  const EdgeRefinement again =
+      RefineCornersOnEdges(smooth, nullptr, r.corners_undistorted, 2.0, RectDetectorOptions());
+  if (again.ok) {
+    EXPECT_LT(MaxError(again.corners_undistorted, outline), 0.5);
+  }
+  // A plain object (no frame, darker than the wall, lighter than the floor: its bottom side is the
+  // odd one too) keeps its bottom where it is.
+  const cv::Mat plain = test::RenderQuads(640, 480, {{floor, 55}, {outline, 100}}, 0.8, 2.0,
+                                          /*seed=*/3, /*background=*/150);
+  const EdgeRefinement p =
+      RefineCornersOnEdges(EdgeRefineImage(plain), nullptr, outline, 2.0, RectDetectorOptions());
+  ASSERT_TRUE(p.ok);
+  EXPECT_LT(MaxError(p.corners_undistorted, outline), 0.3);
+}
+
 }  // namespace
 }  // namespace fsp::frontend

@@ -105,8 +105,8 @@ bool WindowReturnsUnderItsId(Predict predict, const FrontEndOptions& options = F
 }
 
 // Re-identification asks the map: a dormant object it predicts where the detection is comes back;
-// one it places behind the camera, or does not hold once it is initialised (its whereabouts
-// unknown), does not, however alike the two look.
+// one it places behind the camera or elsewhere, or does not hold once it is initialised (its
+// whereabouts unknown), does not, however alike the two look.
 TEST(FrontEndComponent, ReidentificationFollowsTheMapsPrediction) {
   EXPECT_TRUE(WindowReturnsUnderItsId([](int, const Corners&) { return FramePrediction{}; }))
       << "without a map, appearance decides";
@@ -152,7 +152,14 @@ TEST(FrontEndComponent, ReidentificationFollowsTheMapsPrediction) {
   EXPECT_TRUE(WindowReturnsUnderItsId(shifted(0.0), border)) << "at the border, predicted there";
   EXPECT_FALSE(WindowReturnsUnderItsId(shifted(100.0), border))
       << "at the border, predicted 100 px away";
-  EXPECT_TRUE(WindowReturnsUnderItsId(shifted(100.0))) << "away from the border, 100 px away";
+  // Once the map is known an object returns only where the map predicts it (within
+  // reid_gate_frac), away from the border too; by appearance up to reid_reject_frac from the
+  // prediction only with reid_only_where_predicted off.
+  EXPECT_FALSE(WindowReturnsUnderItsId(shifted(100.0))) << "away from the border, 100 px away";
+  FrontEndOptions by_appearance;
+  by_appearance.reid_only_where_predicted = false;
+  EXPECT_TRUE(WindowReturnsUnderItsId(shifted(100.0), by_appearance))
+      << "away from the border, 100 px away, reid_only_where_predicted off";
 }
 
 // While the map predicts a dormant object wholly in view, the detector runs on every frame (not

@@ -383,6 +383,39 @@ TEST(ObjectTracker, LostWhenLeavingTheViewThenReidentifiedAndResumed) {
   EXPECT_EQ(tracker.ActiveIds(), std::vector<int>({1, 2}));
 }
 
+// Re-acquisition where the caller predicts a dormant object (the map projected): a prediction a few
+// pixels off is refined onto the object's edges, and the appearance tells it from another object's
+// model predicted at the same place.
+TEST(ObjectTracker, ReacquiredWherePredicted) {
+  const cv::Mat bg = Background();
+  const cv::Mat ta = Texture(11), tb = Texture(12);
+  const Corners ca0 = Pose(0.6, 0.45, Vec3(0.3, 0.2, 3.0), 0.1, 0.0, 0.05);
+  const Corners cb = Pose(0.5, 0.5, Vec3(-1.0, -0.4, 3.5), -0.3, 0.1, -0.1);
+  const Corners ca = Pose(0.6, 0.45, Vec3(-0.2, 0.4, 2.6), 0.25, -0.1, 0.1);  // later, elsewhere
+  ObjectTracker tracker(Camera());
+  ASSERT_TRUE(tracker.Start(1, Render(bg, {{ta, ca0}, {tb, cb}}, 1), ca0));
+  ASSERT_TRUE(tracker.Start(2, Render(bg, {{ta, ca0}, {tb, cb}}, 1), cb));
+  const cv::Mat img = Render(bg, {{ta, ca}, {tb, cb}}, 2);
+  Corners predicted = ca;
+  for (Vec2& c : predicted) c += Vec2(3.0, -2.0);
+  Corners found;
+  double sim_a = -1.0, sim_b = -1.0;
+  ASSERT_TRUE(tracker.Reacquire(1, img, predicted, &found, &sim_a));
+  for (int i = 0; i < 4; ++i) EXPECT_LT((found[i] - ca[i]).norm(), 0.5) << "corner " << i;
+  EXPECT_GT(sim_a, 0.9);
+  Corners found_b;
+  if (tracker.Reacquire(2, img, predicted, &found_b, &sim_b)) {
+    EXPECT_LT(sim_b, 0.5);
+  }
+  std::printf(
+      "[tracker] re-acquired 3.6 px off the prediction: similarity %.3f (other model %.3f)\n",
+      sim_a, sim_b);
+  EXPECT_FALSE(tracker.Reacquire(7, img, predicted, &found, &sim_a));  // unknown id
+  Corners outside = ca;
+  for (Vec2& c : outside) c += Vec2(-400.0, 0.0);
+  EXPECT_FALSE(tracker.Reacquire(1, img, outside, &found, &sim_a));  // not in the image
+}
+
 // A textured and a plain object moving towards each other; in the last ~10 frames the plain one
 // (drawn last) covers part of the textured one: its NCC falls (0.79 measured) but it stays tracked.
 TEST(ObjectTracker, TwoObjectsKeepTheirIds) {

@@ -16,7 +16,10 @@
 //     A tag-like rectangle that no tag decoding names only resumes a dormant object by appearance;
 //     it starts nothing (a tag's identity is its id).
 //  4. emit: one observation per confirmed object tracked in this frame with its four corners in
-//  view.
+//  view;
+//  5. re-acquire (after 3, before the emission of 4): a dormant object the map predicts wholly in
+//     view that no detection resumed is looked for at its predicted corners and resumes there
+//     (`reacquire_predicted`).
 //
 // Identities: an AprilTag's id is its object id; plain rectangles get ids from `first_rect_id` up,
 // never reused. Classes: the most frequent class guess of an object's detections.
@@ -106,6 +109,22 @@ struct FrontEndOptions {
   // ...and of two look-alikes the one the map predicts at the detection is taken when the other is
   // not predicted there (the margin rule above is then not applied).
   bool reid_map_decides = true;
+  // ...and once the map is known, a dormant object is re-identified only where the map predicts it
+  // (within reid_gate_frac): a look-alike of another shape whose prediction lies within
+  // reid_reject_frac (a framed cabinet beside a framed door on the same wall) is not taken. Default
+  // room from pixels, seeds 1/2/3: id switches 3/3/4 -> 1/2/2, returns 51/52/52 -> 53/53/53 of 54,
+  // boxes out of view 3/0/0 -> 0. false: a detection away from the border is also compared by
+  // appearance with dormant objects predicted up to reid_reject_frac from it.
+  bool reid_only_where_predicted = true;
+  // Once the map is known, a dormant object the back end predicts wholly in view (corners at least
+  // border_margin_px inside the image, clear of live objects) that no detection resumed is looked
+  // for at its predicted corners: refined on the edges (ObjectTracker::Reacquire), within
+  // reid_gate_frac of the prediction and with an appearance of at least
+  // reid_min_similarity_predicted, it resumes there under its old id. Where no edge is found (a
+  // thin frame blurred on a small view), at the predicted corners when the appearance there passes
+  // the same bar, reporting from the next frame (the prediction is no measurement). A returning
+  // object the detector does not report (a poster narrower than its minimum side) is picked up.
+  bool reacquire_predicted = true;
   // A detection matched to a track whose corners differ from the track's by more than this (largest
   // corner distance) [px] replaces the track's corners (the tracker resumes from them, keeping its
   // model): the detector's corners are the better measurement, and a track that slid onto a nearby

@@ -151,6 +151,15 @@ class ObjectTracker {
   // Used to re-identify a returning object.
   std::optional<double> Similarity(int id, const cv::Mat& gray, const Corners& corners) const;
 
+  // Where object `id` (its model, active or dormant) is near corners the caller predicts
+  // (undistorted px, s1..s4, e.g. the map projected): those corners refined on the image's edges (a
+  // coarse pass, then the fine one, with the side polarities learnt at Start: the detector's
+  // refinement) into `corners`, and the appearance check there (as Similarity) into `similarity`.
+  // Returns false for an unknown id, a quad not wholly in the image, or edges not found. Used to
+  // pick up a returning object the detector does not report (too small, say).
+  bool Reacquire(int id, const cv::Mat& gray, const Corners& predicted, Corners* corners,
+                 double* similarity);
+
   // Makes a dormant (or active) object active again at `corners` in `gray` (the frame last given to
   // Track), keeping its model (re-identification). Returns false for an unknown id.
   bool Resume(int id, const cv::Mat& gray, const Corners& corners_undistorted);

@@ -208,6 +208,16 @@ struct RectDetectorOptions {
   // Least fraction of a side's samples that must be inliers of its line (edge support). Higher
   // rejects partly occluded rectangles.
   double min_side_support = 0.5;
+  // Frame outline: a framed object (a dark frame round a lighter panel: a cabinet, a door) whose
+  // frame meets a background of nearly its own grey along one side (a dark frame on a dark floor)
+  // shows no edge there, and that side is found on the frame's inner edge. Recognised when three
+  // sides' inside is darker (or brighter) than their outside and the fourth's the opposite, with
+  // the contrast of a frame edge, and the opposite side shows the frame: a band of one grey from
+  // its outline to an edge of the fourth side's polarity, within this fraction of the quad's
+  // shortest side. The fourth side is then moved out by the band's width there (scaled by the two
+  // sides' length ratio, the perspective) when the band's grey lies outside it, and onto an edge
+  // found there. 0: off.
+  double frame_band_max_frac = 0.2;
   // T-junction test: a side's edge must end at its corners. Edge points are searched on the side's
   // line extended past each corner, from `continuation_start_px` (clear of the other side's
   // blurred edge) over `continuation_frac` x the side's length; a point counts when its gradient
