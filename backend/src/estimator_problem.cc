@@ -54,10 +54,6 @@ void Estimator::Impl::AddVisualFactors(ceres::Problem* problem, size_t begin, si
 
 void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
   sigmas.clear();
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::SPARSE_QR;
-  co.num_threads = 1;
-  ceres::Covariance covariance(co);
   std::vector<std::pair<const double*, const double*>> blocks;
   std::vector<Object*> in_problem;
   for (auto& [id, obj] : objects) {
@@ -65,6 +61,8 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
     in_problem.push_back(obj.get());
     obj->landmark.AppendCovarianceBlocks(&blocks);
   }
+  std::vector<const double*> wanted;
+  for (const auto& [a, b] : blocks) wanted.insert(wanted.end(), {a, b});
   // The map's scale (EstimatorSummary::scale_sigma): the objects the map reports, with their
   // cross-covariances (models with a scale block only).
   std::vector<const Object*> mapped;
@@ -72,22 +70,10 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
     if (obj->landmark.ScaleBlock() && obj->observations >= options.min_observations &&
         !AtDepthBound(*obj))
       mapped.push_back(obj);
-  for (size_t i = 0; i < mapped.size(); ++i)
-    for (size_t j = i + 1; j < mapped.size(); ++j)
-      blocks.emplace_back(mapped[i]->landmark.ScaleBlock(), mapped[j]->landmark.ScaleBlock());
   summary.scale_sigma = -1.0;
-  if (blocks.empty() || !covariance.Compute(blocks, problem)) return;
-  // ceres::Covariance orders its columns by parameter block address, so the last bits of a σ
-  // depend on heap layout; 9 significant digits keep the output deterministic and lose nothing.
-  const auto round9 = [](double v) {
-    if (!(v > 0.0)) return v;
-    const double scale = std::pow(10.0, 8 - static_cast<int>(std::floor(std::log10(v))));
-    return std::round(v * scale) / scale;
-  };
-  for (Object* obj : in_problem) {
-    const auto [sw, sh] = obj->landmark.SizeSigmas(covariance);
-    sigmas[obj] = {round9(sw), round9(sh)};
-  }
+  MarginalCovariance covariance;
+  if (!covariance.Compute(problem, wanted)) return;
+  for (Object* obj : in_problem) sigmas[obj] = obj->landmark.SizeSigmas(covariance);
   if (mapped.empty()) return;
   // σ of the mean log scale: Cov(s_i, s_j) summed over every pair.
   double var = 0.0;
@@ -96,7 +82,7 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
       var += (i == j ? 1.0 : 2.0) *
              mapped[i]->landmark.ScaleCovariance(covariance, mapped[j]->landmark);
   const double n = static_cast<double>(mapped.size());
-  summary.scale_sigma = round9(std::sqrt(std::max(0.0, var)) / n);
+  summary.scale_sigma = std::sqrt(std::max(0.0, var)) / n;
 }
 
 void Estimator::Impl::AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj,

@@ -73,9 +73,9 @@ void AppendCovarianceBlocksOf(const FspLandmark& l,
   blocks->emplace_back(l.x, l.x);
 }
 
-std::pair<double, double> SizeSigmasOf(const FspLandmark& l, const ceres::Covariance& covariance) {
+std::pair<double, double> SizeSigmasOf(const FspLandmark& l, const MarginalCovariance& covariance) {
   double c[25];
-  covariance.GetCovarianceBlock(l.x, l.x, c);
+  FSP_CHECK(covariance.Block(l.x, l.x, c));
   Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
   // log w = log w̄ − log ω;  log h = log w̄ − log f − log ω;  σ_w = w σ_log w.
   Eigen::Matrix<double, 1, 5> jw = Eigen::Matrix<double, 1, 5>::Zero(), jh = jw;
@@ -93,13 +93,13 @@ const double* ScaleBlockOf(const FspLandmark& l) {
 
 // ½ (log w + log h) = log w̄ − log ω − ½ log f.
 double ScaleCovarianceOf(const FspLandmark& a, const FspLandmark& b,
-                         const ceres::Covariance& covariance) {
+                         const MarginalCovariance& covariance) {
   Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
   g[kFspLogWbar] = 1.0;
   g[kFspLogOmega] = -1.0;
   g[kFspLogForm] = -0.5;
   double c[25];
-  covariance.GetCovarianceBlock(a.x, b.x, c);
+  FSP_CHECK(covariance.Block(a.x, b.x, c));
   const Eigen::Map<Eigen::Matrix<double, 5, 5, Eigen::RowMajor>> C(c);
   return g.dot(C * g);
 }
@@ -154,12 +154,12 @@ void AppendCovarianceBlocksOf(const FhpLandmark& l,
 
 // w and h are functions of the 12 corner parameters (all in the anchor frame, so the anchor pose
 // does not enter): σ² = J C Jᵀ with C the joint 12 x 12 covariance and J by central differences.
-std::pair<double, double> SizeSigmasOf(const FhpLandmark& l, const ceres::Covariance& covariance) {
+std::pair<double, double> SizeSigmasOf(const FhpLandmark& l, const MarginalCovariance& covariance) {
   Eigen::Matrix<double, 12, 12> C;
   for (int a = 0; a < 4; ++a)
     for (int b = a; b < 4; ++b) {
       double c[9];
-      covariance.GetCovarianceBlock(l.corner[a], l.corner[b], c);
+      FSP_CHECK(covariance.Block(l.corner[a], l.corner[b], c));
       const Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Cab(c);
       C.block<3, 3>(3 * a, 3 * b) = Cab;
       C.block<3, 3>(3 * b, 3 * a) = Cab.transpose();
@@ -181,7 +181,7 @@ const double* ScaleBlockOf(const FhpLandmark&) {
   return nullptr;
 }
 
-double ScaleCovarianceOf(const FhpLandmark&, const FhpLandmark&, const ceres::Covariance&) {
+double ScaleCovarianceOf(const FhpLandmark&, const FhpLandmark&, const MarginalCovariance&) {
   return 0.0;  // never asked: ScaleBlock is null
 }
 
@@ -247,7 +247,7 @@ void Landmark::AppendCovarianceBlocks(
   std::visit([&](const auto& l) { AppendCovarianceBlocksOf(l, blocks); }, l_);
 }
 
-std::pair<double, double> Landmark::SizeSigmas(const ceres::Covariance& covariance) const {
+std::pair<double, double> Landmark::SizeSigmas(const MarginalCovariance& covariance) const {
   return std::visit([&](const auto& l) { return SizeSigmasOf(l, covariance); }, l_);
 }
 
@@ -255,7 +255,8 @@ const double* Landmark::ScaleBlock() const {
   return std::visit([](const auto& l) { return ScaleBlockOf(l); }, l_);
 }
 
-double Landmark::ScaleCovariance(const ceres::Covariance& covariance, const Landmark& other) const {
+double Landmark::ScaleCovariance(const MarginalCovariance& covariance,
+                                 const Landmark& other) const {
   FSP_CHECK(l_.index() == other.l_.index());
   return std::visit(
       [&](const auto& l) {

@@ -16,6 +16,7 @@
 #include "fsp/backend/fhp_factor.h"
 #include "fsp/backend/fsp_factor.h"
 #include "fsp/backend/fsp_landmark.h"
+#include "marginal_covariance.h"
 
 namespace fsp::backend::internal {
 
@@ -68,12 +69,12 @@ class Landmark {
   // The covariance blocks SizeSigmas needs.
   void AppendCovarianceBlocks(std::vector<std::pair<const double*, const double*>>* blocks) const;
   // (σ_w, σ_h) [m], first order.
-  std::pair<double, double> SizeSigmas(const ceres::Covariance& covariance) const;
+  std::pair<double, double> SizeSigmas(const MarginalCovariance& covariance) const;
   // The block the map's log scale s = ½ (log w + log h) is linear in; nullptr when the model
   // reports no scale σ (FHP).
   const double* ScaleBlock() const;
   // Cov(s, s_other) from the covariance block of the two ScaleBlocks (both non-null).
-  double ScaleCovariance(const ceres::Covariance& covariance, const Landmark& other) const;
+  double ScaleCovariance(const MarginalCovariance& covariance, const Landmark& other) const;
 
  private:
   explicit Landmark(std::variant<FspLandmark, FhpLandmark> l) : l_(std::move(l)) {}

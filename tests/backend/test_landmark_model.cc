@@ -222,7 +222,9 @@ TEST(LandmarkModel, FspSizeSigmaMatchesTheLandmarksOwn) {
   covariance.GetCovarianceBlock(x, x, C.data());
   const FspLandmark& as_fsp = s.truth;  // l has the truth's values
   const Eigen::Vector2d expected = as_fsp.SizeSigma(C);
-  const auto [sw, sh] = l.SizeSigmas(covariance);
+  MarginalCovariance mine;
+  ASSERT_TRUE(mine.Compute(&problem, {x}));
+  const auto [sw, sh] = l.SizeSigmas(mine);
   EXPECT_GT(sw, 0.0);
   EXPECT_NEAR(sw, expected[0], 1e-9 * expected[0]);
   EXPECT_NEAR(sh, expected[1], 1e-9 * expected[1]);
@@ -231,7 +233,7 @@ TEST(LandmarkModel, FspSizeSigmaMatchesTheLandmarksOwn) {
   g[kFspLogWbar] = 1.0;
   g[kFspLogOmega] = -1.0;
   g[kFspLogForm] = -0.5;
-  EXPECT_NEAR(l.ScaleCovariance(covariance, l), g.dot(C * g), 1e-12);
+  EXPECT_NEAR(l.ScaleCovariance(mine, l), g.dot(C * g), 1e-12);
 }
 
 }  // namespace
