@@ -1,6 +1,7 @@
-// The estimator's state and its parts, shared by the files that implement it (estimator.cc: the
-// window, the batch, marginalisation, faults and the map; estimator_global.cc: the global step and
-// loop closure). Internal: not installed, included by those files only.
+// The estimator's state and its parts, shared by the files that implement it (estimator.cc:
+// keyframes, the batch, faults and the map; estimator_window.cc: the window's solve and
+// marginalisation; estimator_global.cc: the global step and loop closure). Internal: not installed,
+// included by those files only.
 #pragma once
 
 #include "fsp/backend/estimator.h"
