@@ -123,7 +123,8 @@ FspLandmark LandmarkFromBlocks(const double* q_F_O, const double* x) {
   return l;
 }
 
-// Jacobians of a_j = r + R_F_O s̄_j (Rs = R_F_O s̄_j) w.r.t. the left perturbation of R_F_O (3) and x (5):
+// Jacobians of a_j = r + R_F_O s̄_j (Rs = R_F_O s̄_j) w.r.t. the left perturbation of R_F_O (3) and x
+// (5):
 //   da/dφ = −[R_F_O s̄_j]×,  da/du = e_x, da/dv = e_y, da/dlog ω = 0,
 //   da/dlog w̄ = R_F_O s̄_j (s̄ ∝ w̄),  da/dlog f = R_F_O (0, −s̄_j,y, 0) (s̄_y ∝ 1/f).
 void CornerDirJacobians(const Mat3& R_F_O, const Vec3& sbar, const Vec3& Rs, Mat3* d_a_d_phi,
