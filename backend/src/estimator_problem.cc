@@ -1,6 +1,6 @@
 // The estimator's problem builder (every keyframe and object of a set in one Ceres problem: the
 // batch's solves, the window's global step) and the map's covariance; the window's own problem is
-// built in estimator.cc from the same pieces (AddVisualFactors, AddObservation).
+// built in estimator_window.cc from the same pieces (AddVisualFactors, AddObservation).
 #include "estimator_impl.h"
 
 #include <algorithm>

@@ -44,33 +44,42 @@ std::unique_ptr<ceres::LossFunction> MakeRobustLoss(const RobustLossOptions& opt
   return nullptr;
 }
 
-Vec3 AnchoredHomogeneousPoint(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor,
-                              const Rigid3& T_B_C, const Vec3& a, double omega,
-                              AnchoredPointJacobians* J) {
+AnchoredFrames::AnchoredFrames(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor,
+                               const Rigid3& T_B_C) {
   const Mat3 R_B_C = T_B_C.R();
   const Vec3& p_B_C = T_B_C.translation();
   const Mat3 R_W_Bc = T_W_Bcam.R();
   const Mat3 R_W_Ba = T_W_Banchor.R();
   // Lever arms of the camera in W: b = R_W_B p_B_C.
-  const Vec3 b_cam = R_W_Bc * p_B_C;
-  const Vec3 b_anc = R_W_Ba * p_B_C;
-  const Mat3 R_C_W = (R_W_Bc * R_B_C).transpose();
-  const Mat3 R_W_F = R_W_Ba * R_B_C;
+  b_cam = R_W_Bc * p_B_C;
+  b_anc = R_W_Ba * p_B_C;
+  R_C_W = (R_W_Bc * R_B_C).transpose();
+  R_W_F = R_W_Ba * R_B_C;
   const Vec3 p_W_C = T_W_Bcam.translation() + b_cam;
   const Vec3 p_W_F = T_W_Banchor.translation() + b_anc;
-  const Vec3 d_FC = p_W_F - p_W_C;
-  const Vec3 Ra = R_W_F * a;
+  d_FC = p_W_F - p_W_C;
+}
+
+Vec3 AnchoredHomogeneousPoint(const AnchoredFrames& f, const Vec3& a, double omega,
+                              AnchoredPointJacobians* J) {
+  const Vec3 Ra = f.R_W_F * a;
   // g = ω (p_W_F − p_W_C) + R_W_F a (in W), h = R_C_W g.
-  const Vec3 g = omega * d_FC + Ra;
+  const Vec3 g = omega * f.d_FC + Ra;
   if (J != nullptr) {
-    J->d_p_cam = -omega * R_C_W;
-    J->d_phi_cam = R_C_W * (Skew(g) + omega * Skew(b_cam));
-    J->d_p_anchor = omega * R_C_W;
-    J->d_phi_anchor = -R_C_W * (omega * Skew(b_anc) + Skew(Ra));
-    J->d_a = R_C_W * R_W_F;
-    J->d_omega = R_C_W * d_FC;
+    J->d_p_cam = -omega * f.R_C_W;
+    J->d_phi_cam = f.R_C_W * (Skew(g) + omega * Skew(f.b_cam));
+    J->d_p_anchor = omega * f.R_C_W;
+    J->d_phi_anchor = -f.R_C_W * (omega * Skew(f.b_anc) + Skew(Ra));
+    J->d_a = f.R_C_W * f.R_W_F;
+    J->d_omega = f.R_C_W * f.d_FC;
   }
-  return R_C_W * g;
+  return f.R_C_W * g;
+}
+
+Vec3 AnchoredHomogeneousPoint(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor,
+                              const Rigid3& T_B_C, const Vec3& a, double omega,
+                              AnchoredPointJacobians* J) {
+  return AnchoredHomogeneousPoint(AnchoredFrames(T_W_Bcam, T_W_Banchor, T_B_C), a, omega, J);
 }
 
 Vec2 ProjectHomogeneous(const Mat3& K, const Vec3& h, Mat23* d_z_d_h) {
@@ -114,13 +123,12 @@ FspLandmark LandmarkFromBlocks(const double* q_F_O, const double* x) {
   return l;
 }
 
-// Jacobians of a_j = r + R_F_O s̄_j w.r.t. the left perturbation of R_F_O (3) and x (5):
+// Jacobians of a_j = r + R_F_O s̄_j (Rs = R_F_O s̄_j) w.r.t. the left perturbation of R_F_O (3) and x
+// (5):
 //   da/dφ = −[R_F_O s̄_j]×,  da/du = e_x, da/dv = e_y, da/dlog ω = 0,
 //   da/dlog w̄ = R_F_O s̄_j (s̄ ∝ w̄),  da/dlog f = R_F_O (0, −s̄_j,y, 0) (s̄_y ∝ 1/f).
-void CornerDirJacobians(const FspLandmark& l, const Mat3& R_F_O, int j, Mat3* d_a_d_phi,
+void CornerDirJacobians(const Mat3& R_F_O, const Vec3& sbar, const Vec3& Rs, Mat3* d_a_d_phi,
                         Mat35* d_a_d_x) {
-  const Vec3 sbar = l.SBar(j);
-  const Vec3 Rs = R_F_O * sbar;
   *d_a_d_phi = -Skew(Rs);
   d_a_d_x->setZero();
   d_a_d_x->col(kFspU) = Vec3::UnitX();
@@ -150,6 +158,9 @@ bool FspFactor::Evaluate(double const* const* parameters, double* residuals,
   const double omega = l.Omega();
   const double inv_sigma = 1.0 / options_.sigma_px;
   const bool want = jacobians != nullptr;
+  // What the four corners share, computed once (the same bits as per corner).
+  const AnchoredFrames frames(T_W_Bc, T_W_Ba, T_B_C_);
+  const Vec3 ray = l.Ray();
 
   Mat34 dphi_dq_cam, dphi_dq_anc, dphi_dq_FO;
   if (want) {
@@ -158,9 +169,11 @@ bool FspFactor::Evaluate(double const* const* parameters, double* residuals,
     dphi_dq_FO = LeftRotationJacobianWrtQuat(l.QuatFO());
   }
   for (int j = 0; j < 4; ++j) {
-    const Vec3 a = l.CornerDirF(j);
+    const Vec3 sbar = l.SBar(j);
+    const Vec3 Rs = R_F_O * sbar;
+    const Vec3 a = ray + Rs;  // l.CornerDirF(j)
     AnchoredPointJacobians Jh;
-    const Vec3 h = AnchoredHomogeneousPoint(T_W_Bc, T_W_Ba, T_B_C_, a, omega, want ? &Jh : nullptr);
+    const Vec3 h = AnchoredHomogeneousPoint(frames, a, omega, want ? &Jh : nullptr);
     if (!(h.z() > options_.min_h_z)) return false;  // cheirality (see header)
     Mat23 D;
     const Vec2 z = ProjectHomogeneous(K_, h, want ? &D : nullptr);
@@ -181,7 +194,7 @@ bool FspFactor::Evaluate(double const* const* parameters, double* residuals,
     if (jacobians[2] != nullptr || jacobians[3] != nullptr) {
       Mat3 d_a_d_phi;
       Mat35 d_a_d_x;
-      CornerDirJacobians(l, R_F_O, j, &d_a_d_phi, &d_a_d_x);
+      CornerDirJacobians(R_F_O, sbar, Rs, &d_a_d_phi, &d_a_d_x);
       const Mat23 Da = D * Jh.d_a;
       if (jacobians[2] != nullptr) {
         Eigen::Map<Mat84R> J(jacobians[2]);
@@ -215,8 +228,11 @@ bool FspAnchorFactor::Evaluate(double const* const* parameters, double* residual
   const bool want = jacobians != nullptr;
   Mat34 dphi_dq_FO;
   if (want) dphi_dq_FO = LeftRotationJacobianWrtQuat(l.QuatFO());
+  const Vec3 ray = l.Ray();
   for (int j = 0; j < 4; ++j) {
-    const Vec3 h = l.CornerDirF(j);
+    const Vec3 sbar = l.SBar(j);
+    const Vec3 Rs = R_F_O * sbar;
+    const Vec3 h = ray + Rs;  // l.CornerDirF(j)
     if (!(h.z() > options_.min_h_z)) return false;
     Mat23 D;
     const Vec2 z = ProjectHomogeneous(K_, h, want ? &D : nullptr);
@@ -226,7 +242,7 @@ bool FspAnchorFactor::Evaluate(double const* const* parameters, double* residual
     D *= inv_sigma;
     Mat3 d_a_d_phi;
     Mat35 d_a_d_x;
-    CornerDirJacobians(l, R_F_O, j, &d_a_d_phi, &d_a_d_x);
+    CornerDirJacobians(R_F_O, sbar, Rs, &d_a_d_phi, &d_a_d_x);
     if (jacobians[0] != nullptr) {
       Eigen::Map<Mat84R> J(jacobians[0]);
       J.block<2, 4>(2 * j, 0) = D * d_a_d_phi * dphi_dq_FO;

@@ -4,7 +4,7 @@
 // frames.
 //
 // Modes:
-//  - kWindow (online): keyframes every keyframe_interval_s (default: every frame), the newest frame
+//  - kWindow (online): keyframes every keyframe_interval_s (default 0.2 s), the newest frame
 //    always solved with them; the problem holds the last `window_size` keyframes
 //    and the objects they see. When a keyframe leaves the window, the objects anchored at it are
 //    re-anchored exactly at the newest keyframe that sees s1 in front (reanchor.h); its inertial
@@ -112,7 +112,9 @@ struct GlobalOptions {
   // The global solves during the run hold every keyframe older than the newest
   // max_free_keyframes at its estimate, except the keyframes since a loop's object was last seen
   // (they are free): so their cost stops growing with the run. 0: every keyframe is free. The final
-  // solve frees every keyframe.
+  // solve frees every keyframe. With keyframes every 0.1 s (default room, render seeds 1 / 3,
+  // gt-corners): 150 (15 s) -> causal ATE 4.3 / 5.7 cm; 100 (10 s) -> 4.1 / 5.4 cm at 27 % less
+  // global CPU; 60 -> 4.8 / 5.9 cm; 40 -> 25 / 19 cm (the final map the same within 0.05 mm).
   int max_free_keyframes = 150;
   WindowBoundary boundary = WindowBoundary::kPrior;
   // A returning object (no window keyframe saw it) predicted within this RMS error of its corners
@@ -161,9 +163,11 @@ struct EstimatorOptions {
   // when it sees an object that is new (or back after leaving the window) [s]. Other frames are
   // solved with the window (their pose is reported) and then dropped. Longer: the window spans more
   // time (better scale and velocity before marginalisation) for the same CPU; too long: less visual
-  // information per second. 0 = every frame is a keyframe. Measured (default scene, 1 px, seeds
-  // 1/2/3): 0.2 s -> ATE 0.20/0.18/0.18 m, 0 -> 0.27/0.28/1.37 m (on its first 20 s alone, 0 was
-  // better: 9.7 vs 15 cm).
+  // information per second. 0 = every frame is a keyframe. Measured (default room, 1 px, render
+  // seeds 1/2/3, with the global step; backend/README.md, "Cost"): 0.1 s -> ATE 0.63/0.31/0.75 cm,
+  // width error 0.23/0.20/0.24 cm; 0.2 s -> 0.87/0.50/1.05 cm, 0.39/0.30/0.41 cm. 0.1 s costs
+  // what 0.2 s did before the back end was made cheaper, but FHP drifts during the hall flight's
+  // stand-still with it (0.32 m in 10 s against 5 mm), hence not the default yet.
   double keyframe_interval_s = 0.2;
   // Batch mode: the same for the batch (and a keyframe on every new object); the other frames are
   // predicted through the IMU, not solved [s]. 0 = every frame is a keyframe. Measured (1 px, seed

@@ -75,6 +75,16 @@ struct AnchoredPointJacobians {
 Vec3 AnchoredHomogeneousPoint(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor,
                               const Rigid3& T_B_C, const Vec3& a, double omega,
                               AnchoredPointJacobians* J = nullptr);
+// What h depends on besides a and ω (one camera pose, one anchor pose): computed once for the four
+// corners of a rectangle. The overload below gives the same bits as the one above.
+struct AnchoredFrames {
+  AnchoredFrames(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor, const Rigid3& T_B_C);
+  Vec3 b_cam, b_anc;  // lever arms R_W_B p_B_C of camera and anchor, in W
+  Mat3 R_C_W, R_W_F;
+  Vec3 d_FC;  // p_W_F − p_W_C
+};
+Vec3 AnchoredHomogeneousPoint(const AnchoredFrames& f, const Vec3& a, double omega,
+                              AnchoredPointJacobians* J = nullptr);
 
 // z = π(K h) with optional Jacobian dz/dh = [[1/h_z, 0, −p_x/h_z²], [0, 1/h_z, −p_y/h_z²]] K, p = K
 // h. K must have last row (0, 0, 1) (zero skew allowed or not).

@@ -1,0 +1,152 @@
+// The sliding window (backend/README.md): its solve and its marginalisation (the oldest keyframe's
+// objects re-anchored, its inertial information into the linear prior, its views kept as past
+// views).
+#include "estimator_impl.h"
+
+namespace fsp::backend {
+
+void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
+  ceres::Problem problem(ProblemOptions());
+  const size_t n = keyframes.size();
+  for (size_t i = window_begin; i < n; ++i) AddStateBlocks(&problem, keyframes[i].get());
+  for (size_t i = window_begin + 1; i < n; ++i)
+    if (!keyframes[i]->gauge) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
+  for (size_t i = window_begin; i < n; ++i) {
+    if (keyframes[i]->gauge) AddGaugePriors(&problem, keyframes[i].get());
+    if (keyframes[i]->still)
+      problem.AddResidualBlock(MakeZeroVelocityPrior(*keyframes[i]), nullptr,
+                               keyframes[i]->state.speed_bias);
+  }
+  if (FixedBoundary() && window_begin > 0 && !keyframes[window_begin]->gauge) {
+    // The keyframe before the window, held at its estimate, with its IMU link into the window.
+    Keyframe* boundary = keyframes[window_begin - 1].get();
+    AddStateBlocks(&problem, boundary);
+    problem.SetParameterBlockConstant(boundary->state.pose);
+    problem.SetParameterBlockConstant(boundary->state.speed_bias);
+    AddImuFactor(&problem, boundary, keyframes[window_begin].get());
+  }
+  if (prior) {
+    problem.AddResidualBlock(new MarginalizationPriorFactor(prior), nullptr, prior->blocks);
+    for (size_t b = 0; b < prior->blocks.size(); ++b)
+      if (prior->manifolds[b])
+        problem.SetManifold(prior->blocks[b], const_cast<ceres::Manifold*>(prior->manifolds[b]));
+  }
+  AddVisualFactors(&problem, window_begin, n, /*mature=*/true);
+  AddObjectPriors(&problem);
+  const Snapshot before = Save(window_begin);
+  ceres::Solver::Summary s;
+  ceres::Solve(SolverOptions(max_iterations), &problem, &s);
+  const std::string diverged = Diverged(s, before);
+  if (!diverged.empty()) {
+    Restore(before);
+    ++summary.divergences;
+    if (finish) {
+      Warn(keyframes.back()->state.t_ns,
+           "divergence in the final solve (" + diverged + "): its result was rejected");
+    } else {
+      Restart(diverged);
+    }
+    return;
+  }
+  summary.final_cost = s.final_cost;
+  for (size_t i = window_begin; i < n; ++i)
+    output[keyframes[i]->frame] = keyframes[i]->state.ToStateSample();
+  if (finish) {
+    ComputeSigmas(&problem);
+  } else {
+    RefineYoungObjects(max_iterations);
+  }
+}
+
+void Estimator::Impl::ReanchorObjectsOf(Keyframe* old) {
+  const size_t n = keyframes.size();
+  for (auto& [id, obj] : objects) {
+    if (obj->anchor != old) continue;
+    const Rigid3 T_W_F = CameraPose(*old);
+    for (size_t i = n; i-- > window_begin + 1;) {
+      Keyframe* cand = keyframes[i].get();
+      if (!cand->keyframe) continue;
+      // With the global step, only a keyframe that saw the object: the global solve moves every
+      // keyframe, and an object anchored at one that never saw it (a later one, after a
+      // stretch of dead reckoning) moved with that keyframe's drift; measured on the room loop
+      // with 10 s of nothing in view: the old objects collapsed onto the depth bound.
+      if (options.global.enabled && !Sees(*cand, id)) continue;
+      const Rigid3 T_W_Fnew = CameraPose(*cand);
+      Landmark moved = obj->landmark;
+      // A keyframe that sees s1 barely in front (looking along the wall past it) would put the
+      // object's depth outside the box, where the bound clamps it and destroys its geometry
+      // (measured: the default scene's objects collapsed onto the 0.3 m minimum right after such
+      // a re-anchoring); take the newest keyframe that keeps the depth inside.
+      if (!moved.Reanchor(T_W_F, T_W_Fnew) || !DepthInBox(moved)) continue;
+      obj->landmark = moved;
+      obj->anchor = cand;
+
+      ++summary.reanchors;
+      break;
+    }
+  }
+}
+
+void Estimator::Impl::MarginalizeOldest() {
+  Keyframe* old = keyframes[window_begin].get();
+  Keyframe* next = keyframes[window_begin + 1].get();
+  ReanchorObjectsOf(old);
+  // Objects that could not be re-anchored (s1 behind every window camera) keep their anchor:
+  // their information from the window leaves with the keyframe and they are frozen.
+  if (!FixedBoundary()) MarginalizeIntoPrior(old, next);
+  // The old keyframe's observations stay as factors with its pose held constant (past views).
+  for (const ObjectObservation& o : old->observations) {
+    auto it = objects.find(o.object_id);
+    if (it == objects.end()) continue;
+    auto& past = it->second->past;
+    past.push_back({old, o.corners});
+    if (static_cast<int>(past.size()) > options.max_past_views) past.pop_front();
+  }
+  output[old->frame] = old->state.ToStateSample();
+  ++window_begin;
+  ++summary.marginalizations;
+}
+
+void Estimator::Impl::MarginalizeIntoPrior(Keyframe* old, Keyframe* next) {
+  // Every factor that touches the old keyframe's state, linearised at the current estimate.
+  std::vector<std::unique_ptr<ceres::CostFunction>> costs;
+  std::vector<std::unique_ptr<ceres::LossFunction>> losses;
+  std::vector<ResidualBlockInput> inputs;
+  std::unordered_map<const double*, const ceres::Manifold*> manifolds;
+  auto add = [&](ceres::CostFunction* cost, std::unique_ptr<ceres::LossFunction> loss,
+                 std::vector<double*> blocks) {
+    costs.emplace_back(cost);
+    inputs.push_back({cost, loss.get(), std::move(blocks)});
+    losses.push_back(std::move(loss));
+  };
+  manifolds[old->state.pose] = &pose_manifold;
+  manifolds[next->state.pose] = &pose_manifold;
+  if (next->imu_gap_s > 0.0) {
+    add(MakeGapPrior(next->imu_gap_s), nullptr,
+        {old->state.pose, old->state.speed_bias, next->state.pose, next->state.speed_bias});
+  } else if (!next->gauge) {
+    next->preint->ReintegrateIfNeeded(old->state.gyro_bias(), old->state.acc_bias());
+    add(new ImuFactor(next->preint), nullptr,
+        {old->state.pose, old->state.speed_bias, next->state.pose, next->state.speed_bias});
+  }
+  if (old->gauge) {
+    add(MakeGaugePosePrior(*old->gauge), nullptr, {old->state.pose});
+    add(MakeGaugeBiasPrior(*old->gauge), nullptr, {old->state.speed_bias});
+  }
+  if (old->still) add(MakeZeroVelocityPrior(*old), nullptr, {old->state.speed_bias});
+  if (prior) {
+    for (size_t b = 0; b < prior->blocks.size(); ++b)
+      manifolds[prior->blocks[b]] = prior->manifolds[b];
+    add(new MarginalizationPriorFactor(prior), nullptr, prior->blocks);
+  }
+  const MarginalizationSummary ms = Marginalize(inputs, {old->state.pose, old->state.speed_bias},
+                                                manifolds, MarginalizationOptions());
+  if (ms.success) {
+    prior = ms.prior;
+  } else {
+    prior.reset();  // information lost, but the window stays solvable (gauge prior below)
+    ++summary.marginalization_failures;
+  }
+}
+
+}  // namespace fsp::backend
