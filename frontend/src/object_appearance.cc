@@ -1,0 +1,186 @@
+// The object tracker's appearance model (ObjectTracker::Impl, see object_tracker_internal.h): the
+// frame warped into the reference patch, normalised cross-correlation against the reference, the
+// bounding box and mask of a quad; ObjectTracker::Similarity.
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include <opencv2/imgproc.hpp>
+
+#include "fsp/frontend/rect_geometry.h"
+#include "object_tracker_internal.h"
+
+namespace fsp::frontend {
+namespace {
+
+// Bilinear sample of an 8-bit image; false outside [0, cols-1] x [0, rows-1].
+bool Sample(const cv::Mat& img, double x, double y, float* v) {
+  if (!(x >= 0.0 && y >= 0.0 && x <= img.cols - 1 && y <= img.rows - 1)) return false;
+  const int x0 = std::max(0, std::min(static_cast<int>(x), img.cols - 2));
+  const int y0 = std::max(0, std::min(static_cast<int>(y), img.rows - 2));
+  const double fx = x - x0, fy = y - y0;
+  const uint8_t* r0 = img.ptr<uint8_t>(y0);
+  const uint8_t* r1 = img.ptr<uint8_t>(std::min(y0 + 1, img.rows - 1));
+  const int x1 = std::min(x0 + 1, img.cols - 1);
+  *v = static_cast<float>((1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x1]) +
+                          fy * ((1 - fx) * r1[x0] + fx * r1[x1]));
+  return true;
+}
+
+}  // namespace
+
+using object_tracker_internal::Apply;
+using object_tracker_internal::HomographyFrom4;
+
+// Image levels of a pyramid (every other entry when it holds derivatives).
+std::vector<cv::Mat> ObjectTracker::Impl::Levels(const std::vector<cv::Mat>& pyr,
+                                                 bool with_derivatives) {
+  std::vector<cv::Mat> lv;
+  for (size_t i = 0; i < pyr.size(); i += with_derivatives ? 2 : 1) lv.push_back(pyr[i]);
+  return lv;
+}
+
+// The frame warped into the patch through H (object plane -> undistorted px): CV_32F patch and
+// a validity mask; the pyramid level is chosen so that one patch pixel covers about one level
+// pixel (no aliasing when the object is large). Returns the fraction of patch pixels in view.
+double ObjectTracker::Impl::Warp(const Object& ob, const std::vector<cv::Mat>& levels,
+                                 const Mat3& H, cv::Mat* patch, cv::Mat* valid) const {
+  const int pw = ob.w + 2 * ob.mx, ph = ob.h + 2 * ob.my;
+  patch->create(ph, pw, CV_32F);
+  valid->create(ph, pw, CV_8U);
+  Corners img;
+  for (int i = 0; i < 4; ++i) img[i] = Apply(H, ob.obj_corners[i]);
+  double perim = 0.0;
+  for (int i = 0; i < 4; ++i) perim += (img[(i + 1) % 4] - img[i]).norm();
+  const double scale = perim / (2.0 * (ob.w + ob.h));
+  int level = scale > 1.0 ? static_cast<int>(std::floor(std::log2(scale))) : 0;
+  level = std::clamp(level, 0, static_cast<int>(levels.size()) - 1);
+  const double f = 1.0 / (1 << level);
+  const cv::Mat& im = levels[level];
+  int n_valid = 0;
+  double sum = 0.0;
+  for (int j = 0; j < ph; ++j) {
+    float* pr = patch->ptr<float>(j);
+    uint8_t* vr = valid->ptr<uint8_t>(j);
+    for (int i = 0; i < pw; ++i) {
+      const Vec2 u = Apply(H, Vec2(i - ob.mx, j - ob.my));
+      const Vec2 d = ToDistorted(u);
+      float v = 0.f;
+      // Level coordinates: pixel centres scale about -0.5 (pyrDown halves the grid).
+      const bool ok = std::isfinite(d.x()) && std::isfinite(d.y()) &&
+                      Sample(im, (d.x() + 0.5) * f - 0.5, (d.y() + 0.5) * f - 0.5, &v);
+      pr[i] = v;
+      vr[i] = ok ? 1 : 0;
+      if (ok) {
+        ++n_valid;
+        sum += v;
+      }
+    }
+  }
+  // Smooth (sigma 1 patch px) against noise and motion blur; pixels out of view take the mean
+  // so that they do not create edges.
+  const float mean = n_valid > 0 ? static_cast<float>(sum / n_valid) : 0.f;
+  for (int j = 0; j < ph; ++j)
+    for (int i = 0; i < pw; ++i)
+      if (!valid->at<uint8_t>(j, i)) patch->at<float>(j, i) = mean;
+  cv::GaussianBlur(*patch, *patch, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REPLICATE);
+  return static_cast<double>(n_valid) / (pw * ph);
+}
+
+double ObjectTracker::Impl::Ncc(const cv::Mat& a, const cv::Mat& va, const cv::Mat& b,
+                                const cv::Mat& vb) {
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  int n = 0;
+  for (int j = 0; j < a.rows; ++j) {
+    const float* pa = a.ptr<float>(j);
+    const float* pb = b.ptr<float>(j);
+    const uint8_t* ma = va.ptr<uint8_t>(j);
+    const uint8_t* mb = vb.ptr<uint8_t>(j);
+    for (int i = 0; i < a.cols; ++i) {
+      if (!ma[i] || !mb[i]) continue;
+      sa += pa[i];
+      sb += pb[i];
+      saa += pa[i] * pa[i];
+      sbb += pb[i] * pb[i];
+      sab += pa[i] * pb[i];
+      ++n;
+    }
+  }
+  if (n < 16) return -1.0;
+  const double va2 = saa - sa * sa / n, vb2 = sbb - sb * sb / n;
+  // A flat patch (variance below 1 grey level^2 per pixel) has no appearance to compare.
+  if (va2 < n || vb2 < n) return 0.0;
+  return (sab - sa * sb / n) / std::sqrt(va2 * vb2);
+}
+
+// NCC of the whole patch (object and margin ring); for an object with a textured interior
+// also of the interior alone, and the lower of the two: the ring and the outline are alike for
+// many objects (a light border on a wall), the interior tells them apart.
+double ObjectTracker::Impl::Appearance(const Object& ob, const std::vector<cv::Mat>& levels,
+                                       const Mat3& H, double* visible) const {
+  cv::Mat patch, valid;
+  *visible = Warp(ob, levels, H, &patch, &valid);
+  double ncc = Ncc(ob.ref, ob.ref_valid, patch, valid);
+  if (ob.textured_interior) {
+    const cv::Rect in = Interior(ob);
+    ncc = std::min(ncc, Ncc(ob.ref(in), ob.ref_valid(in), patch(in), valid(in)));
+  }
+  return ncc;
+}
+
+// The object part of the patch without its outer 15 % (away from the outline).
+cv::Rect ObjectTracker::Impl::Interior(const Object& ob) {
+  const int bx = std::max(1, static_cast<int>(0.15 * ob.w)),
+            by = std::max(1, static_cast<int>(0.15 * ob.h));
+  return cv::Rect(ob.mx + bx, ob.my + by, std::max(1, ob.w - 2 * bx), std::max(1, ob.h - 2 * by));
+}
+
+// Bounding box of a quad (distorted px) grown by `margin`, clipped to the image.
+cv::Rect ObjectTracker::Impl::Box(const Corners& und, double margin) const {
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (const Vec2& c : und) {
+    const Vec2 d = ToDistorted(c);
+    x0 = std::min(x0, d.x());
+    y0 = std::min(y0, d.y());
+    x1 = std::max(x1, d.x());
+    y1 = std::max(y1, d.y());
+  }
+  const cv::Rect r(cv::Point(static_cast<int>(std::floor(x0 - margin)),
+                             static_cast<int>(std::floor(y0 - margin))),
+                   cv::Point(static_cast<int>(std::ceil(x1 + margin)) + 1,
+                             static_cast<int>(std::ceil(y1 + margin)) + 1));
+  return r & cv::Rect(0, 0, camera.width, camera.height);
+}
+
+// Mask of the quad (distorted) in box `r`, shrunk by `erode` px (negative: grown).
+cv::Mat ObjectTracker::Impl::QuadMask(const Corners& und, const cv::Rect& r, int erode) const {
+  cv::Mat mask = cv::Mat::zeros(r.size(), CV_8U);
+  std::vector<cv::Point> poly;
+  for (const Vec2& c : und) {
+    const Vec2 d = ToDistorted(c);
+    poly.emplace_back(static_cast<int>(std::lround((d.x() - r.x) * 16)),
+                      static_cast<int>(std::lround((d.y() - r.y) * 16)));
+  }
+  cv::fillConvexPoly(mask, poly, cv::Scalar(255), cv::LINE_8, 4);
+  if (erode > 0) cv::erode(mask, mask, cv::Mat(), cv::Point(-1, -1), erode);
+  if (erode < 0) cv::dilate(mask, mask, cv::Mat(), cv::Point(-1, -1), -erode);
+  return mask;
+}
+
+std::optional<double> ObjectTracker::Similarity(int id, const cv::Mat& gray,
+                                                const Corners& corners) const {
+  impl_->CheckFrame(gray);
+  const auto it = impl_->objects.find(id);
+  if (it == impl_->objects.end()) return std::nullopt;
+  const Impl::Object& ob = it->second;
+  Mat3 H;
+  if (!IsConvex(corners) || !HomographyFrom4(ob.obj_corners, corners, &H)) return -1.0;
+  std::vector<cv::Mat> levels;
+  cv::buildPyramid(gray, levels, 4);
+  double visible = 0.0;
+  const double ncc = impl_->Appearance(ob, levels, H, &visible);
+  // As in Track: an object mostly out of view has no appearance to compare (-1).
+  return visible >= impl_->o.min_visible ? ncc : -1.0;
+}
+
+}  // namespace fsp::frontend

@@ -1,0 +1,146 @@
+// Internal to the object tracker (not installed): ObjectTracker::Impl and the state it keeps per
+// object. Its member functions live in three files:
+//   object_tracker.cc     options, the object model (Init), flow point seeding, edge refinement
+//                         and the public ObjectTracker interface;
+//   object_appearance.cc  the appearance model: the frame warped into the reference patch, NCC,
+//                         boxes and masks of a quad; ObjectTracker::Similarity;
+//   object_track_step.cc  one frame: the optical flow of all objects (Track) and the per-object
+//                         step (TrackOne) in its stages.
+//
+// Coordinates: the object plane is the reference patch's pixel grid without its margin ring: the
+// object's outline runs from (-0.5, -0.5) (s4, top-left) to (W - 0.5, H - 0.5) (s2, bottom-right),
+// patch pixel (i, j) samples object point (i - mx, j - my). Homographies map the object plane to
+// UNDISTORTED pixels (a plane seen by a pinhole); flow points and the pyramid live in the distorted
+// image as stored.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+
+#include "fsp/common/camera.h"
+#include "fsp/common/error.h"
+#include "fsp/common/types.h"
+#include "fsp/frontend/edge_refine.h"
+#include "fsp/frontend/object_tracker.h"
+
+namespace fsp::frontend {
+namespace object_tracker_internal {
+
+inline Vec2 Apply(const Mat3& H, const Vec2& p) {
+  const Vec3 q = H * Vec3(p.x(), p.y(), 1.0);
+  return Vec2(q.x() / q.z(), q.y() / q.z());
+}
+
+// Exact homography of four point pairs (DLT with h33 = 1, 8x8 solve in double).
+bool HomographyFrom4(const Corners& from, const Corners& to, Mat3* H);
+
+}  // namespace object_tracker_internal
+
+struct ObjectTracker::Impl {
+  struct Object {
+    int id = -1;
+    bool active = false;
+    // Model: object-plane size (patch pixels without the margin) and margin.
+    int w = 0, h = 0, mx = 0, my = 0;
+    Corners obj_corners;                          // s1..s4 in the object plane
+    std::vector<Vec2> model_xy;                   // descriptor keypoints in the object plane
+    cv::Mat model_desc;                           // ORB descriptors (rows of model_xy)
+    cv::Mat ref;                                  // reference patch, CV_32F, smoothed
+    cv::Mat ref_valid;                            // CV_8U, 1 where the reference was in view
+    std::array<int, 4> side_sign = {0, 0, 0, 0};  // edge polarity per side, 0 = unknown
+    bool textured_interior = false;  // the reference's interior has structure (grey std >= 8)
+    // State.
+    Mat3 H = Mat3::Identity(), H_prev = Mat3::Identity();
+    bool has_motion = false;          // H_prev valid (constant-velocity prediction)
+    std::vector<Vec2> pt_obj;         // flow points in the object plane
+    std::vector<cv::Point2f> pt_img;  // and in the last frame (distorted px)
+    int frames_since_refresh = 0;
+    int seeded = 0;  // flow points right after the last seeding
+  };
+
+  // One object's point correspondences in one frame (TrackOne): the flow points that survived,
+  // then the descriptor matches of a recovery.
+  struct Correspondences {
+    std::vector<cv::Point2f> obj_pts, img_pts;  // object plane, undistorted px
+    std::vector<cv::Point2f> obj_dist;          // their distorted image positions
+    int n_flow = 0;                             // the first n_flow are flow points
+  };
+
+  // The homography the correspondences agree on (TrackOne); the prediction when they do not.
+  struct Consensus {
+    Mat3 H;
+    bool strong = false;  // sane and with at least min_inliers inliers
+    int inliers = 0;
+  };
+
+  PinholeRadtan camera;
+  const Options& o;
+  bool distorted = false;
+  std::map<int, Object> objects;
+  std::vector<cv::Mat> prev_pyr;  // with derivatives (buildOpticalFlowPyramid)
+  cv::Mat prev_gray;
+  cv::Mat smooth;  // EdgeRefineImage, filled per object region
+  cv::Ptr<cv::ORB> orb;
+
+  Impl(const PinholeRadtan& cam, const Options& opt) : camera(cam), o(opt) {
+    distorted = camera.HasDistortion();
+    orb = cv::ORB::create(std::max(o.model_keypoints, 1), 1.3f, 4, 31, 0, 2, cv::ORB::HARRIS_SCORE,
+                          31, 10);
+  }
+
+  Vec2 ToDistorted(const Vec2& u) const { return distorted ? camera.DistortPixel(u) : u; }
+  Vec2 ToUndistorted(const Vec2& d) const { return distorted ? camera.UndistortPixel(d) : d; }
+
+  Corners CornersOf(const Object& ob, const Mat3& H) const {
+    Corners c;
+    for (int i = 0; i < 4; ++i) c[i] = object_tracker_internal::Apply(H, ob.obj_corners[i]);
+    return c;
+  }
+
+  // object_tracker.cc
+  void CheckFrame(const cv::Mat& gray) const;
+  std::vector<cv::Mat> Pyramid(const cv::Mat& gray) const;
+  void SetPrevFrame(const cv::Mat& gray);
+  std::vector<cv::Point2f> Corners2D(const cv::Mat& img, const cv::Mat& mask,
+                                     double min_dist) const;
+  void ResetCornerPoints(Object* ob, const Corners& corners_px, const cv::Mat& gray) const;
+  void SeedPoints(Object* ob, const cv::Mat& gray) const;
+  bool Refine(const Object& ob, const cv::Mat& gray, const Corners& c, bool coarse,
+              EdgeRefinement* out);
+  bool Init(Object* ob, const cv::Mat& gray, const Corners& corners, bool build_model);
+
+  // object_appearance.cc
+  static std::vector<cv::Mat> Levels(const std::vector<cv::Mat>& pyr, bool with_derivatives);
+  double Warp(const Object& ob, const std::vector<cv::Mat>& levels, const Mat3& H, cv::Mat* patch,
+              cv::Mat* valid) const;
+  static double Ncc(const cv::Mat& a, const cv::Mat& va, const cv::Mat& b, const cv::Mat& vb);
+  double Appearance(const Object& ob, const std::vector<cv::Mat>& levels, const Mat3& H,
+                    double* visible) const;
+  static cv::Rect Interior(const Object& ob);
+  cv::Rect Box(const Corners& und, double margin) const;
+  cv::Mat QuadMask(const Corners& und, const cv::Rect& r, int erode) const;
+
+  // object_track_step.cc
+  int FlowCorrespondences(const Object& ob, const std::vector<cv::Point2f>& p1,
+                          const std::vector<uint8_t>& good, size_t offset,
+                          Correspondences* c) const;
+  void MatchModel(const Object& ob, const cv::Mat& gray, const Mat3& H_pred, Correspondences* c);
+  Consensus FitHomography(const Object& ob, const Mat3& H_pred, const Correspondences& c,
+                          bool recovered) const;
+  bool RefineOnEdges(const Object& ob, const cv::Mat& gray, const Consensus& k, bool recovered,
+                     Corners* final_corners, Mat3* H_final);
+  void Advance(Object* ob, const cv::Mat& gray, const TrackedObject& t, const Correspondences& c,
+               const Mat3& H_final, bool strong) const;
+  TrackedObject TrackOne(Object* ob, const cv::Mat& gray, const std::vector<cv::Mat>& levels,
+                         const Mat3& H_pred, const std::vector<cv::Point2f>& p1,
+                         const std::vector<uint8_t>& good, size_t offset);
+  std::vector<TrackedObject> Track(const cv::Mat& gray, const std::map<int, Corners>& predicted);
+};
+
+}  // namespace fsp::frontend
