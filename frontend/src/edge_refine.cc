@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "fsp/common/error.h"
+#include "fsp/common/median.h"
 #include "fsp/frontend/rect_geometry.h"
 #include "rect_internal.h"
 
@@ -309,11 +310,6 @@ bool RefineQuad(const EdgeProbe& probe, const std::vector<Seg>& segs, double min
 namespace {
 
 constexpr int kPositions = 12;
-
-double Median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 // Grey of the smoothed image at undistorted point p; false outside.
 bool GreyAt(const EdgeProbe& probe, const Vec2& p, double* v) {

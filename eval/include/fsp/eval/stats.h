@@ -4,6 +4,8 @@
 #include <cstddef>
 #include <vector>
 
+#include "fsp/common/median.h"
+
 namespace fsp::eval {
 
 struct ErrorStats {
@@ -20,7 +22,7 @@ struct ErrorStats {
 // Statistics of ERRORS; all zero (count 0) when empty.
 ErrorStats ComputeStats(std::vector<double> errors);
 
-// numpy.median of VALUES (0 when empty).
-double Median(std::vector<double> values);
+// numpy.median of VALUES (0 when empty): fsp::Median (fsp/common/median.h).
+using ::fsp::Median;
 
 }  // namespace fsp::eval
