@@ -277,13 +277,8 @@ void FrontEnd::Impl::StartOrResume(const std::vector<Detection>& dets,
 void FrontEnd::Impl::ReacquirePredicted(FrameWork* w) {
   const FrontEndOptions& o = w->o;
   if (!o.reacquire_predicted || !w->prediction.map_known) return;
-  for (const auto& [id, pc] : w->prediction.objects) {
-    const auto it = objects.find(id);
-    if (it == objects.end() || it->second.active || !it->second.confirmed) continue;
-    bool inside = true;
-    for (const Vec2& c : pc)
-      inside = inside && camera.InImage(camera.DistortPixel(c), o.border_margin_px);
-    if (!inside) continue;
+  for (const auto* predicted : PredictedDormant(w->prediction, o.border_margin_px)) {
+    const auto& [id, pc] = *predicted;
     // Not where a live object is (a nested outline, a look-alike tracked there).
     bool on_live = false;
     for (const auto& [lid, lc] : w->tracked)
@@ -307,7 +302,7 @@ void FrontEnd::Impl::ReacquirePredicted(FrameWork* w) {
     if (similarity < o.reid_min_similarity_predicted || !tracker.Resume(id, w->gray, corners))
       continue;
     ++w->result.reidentified;
-    ObjectInfo& info = it->second;
+    ObjectInfo& info = objects.at(id);
     info.active = true;
     info.last = corners;
     if (refined) w->from_detection[id] = corners;

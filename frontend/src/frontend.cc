@@ -186,17 +186,20 @@ bool FrontEnd::Impl::TrackAll(FrameWork* w) {
   return lost;
 }
 
-// Whether the back end predicts a dormant object wholly in view: it is coming back, and the
-// detector runs so that it is re-identified in its first frame in view.
-bool FrontEnd::Impl::DormantPredictedInView(const FramePrediction& prediction) const {
-  for (const auto& [id, c] : prediction.objects) {
-    const auto it = objects.find(id);
+// The confirmed dormant objects the back end predicts wholly in view, MARGIN_PX inside the image
+// (their entries of prediction.objects): they are coming back.
+std::vector<const std::pair<int, Corners>*> FrontEnd::Impl::PredictedDormant(
+    const FramePrediction& prediction, double margin_px) const {
+  std::vector<const std::pair<int, Corners>*> out;
+  for (const auto& entry : prediction.objects) {
+    const auto it = objects.find(entry.first);
     if (it == objects.end() || it->second.active || !it->second.confirmed) continue;
     bool in_view = true;
-    for (const Vec2& p : c) in_view = in_view && camera.InImage(camera.DistortPixel(p));
-    if (in_view) return true;
+    for (const Vec2& p : entry.second)
+      in_view = in_view && camera.InImage(camera.DistortPixel(p), margin_px);
+    if (in_view) out.push_back(&entry);
   }
-  return false;
+  return out;
 }
 
 bool FrontEnd::Impl::DetectionDue(bool lost_now, const FramePrediction& prediction,
@@ -206,7 +209,7 @@ bool FrontEnd::Impl::DetectionDue(bool lost_now, const FramePrediction& predicti
     if (info.active) (info.confirmed ? confirmed_live : candidates)++;
   return frame_index - last_detect_frame >= o.detect_every || candidates > 0 || lost_now ||
          lost_last_frame || confirmed_live == 0 ||
-         (o.detect_on_predicted_return && DormantPredictedInView(prediction));
+         (o.detect_on_predicted_return && !PredictedDormant(prediction, 0.0).empty());
 }
 
 // One more detection run that saw the object; confirms a candidate after confirm_detections.

@@ -100,7 +100,8 @@ struct FrontEnd::Impl {
   std::vector<Detection> Detect(const cv::Mat& gray, const FramePrediction& prediction,
                                 const std::map<int, Corners>& tracked, const FrontEndOptions& o);
   bool TrackAll(FrameWork* w);
-  bool DormantPredictedInView(const FramePrediction& prediction) const;
+  std::vector<const std::pair<int, Corners>*> PredictedDormant(const FramePrediction& prediction,
+                                                               double margin_px) const;
   bool DetectionDue(bool lost_now, const FramePrediction& prediction,
                     const FrontEndOptions& o) const;
   void Vote(ObjectInfo& info, const Detection& d, FrameWork* w) const;
