@@ -156,13 +156,19 @@ std::vector<rect_internal::Quad> TextureHypotheses(const RectDetectorOptions& o,
   const double diag = std::hypot(cols, rows);
   ri::EdgeImages le = ri::DetectEdges(level, o);
   const int min_seg = ri::MinSegmentPx(o, diag);
-  // Straight sides only: no bridged sides, no curved ones (a block's outline is neither).
+  const int min_piece = std::max(6, min_seg / 3);
+  // Straight sides only: no bridged sides, no curved ones (a block's outline is neither). The
+  // map's pieces are a few level px long between pixel centres on its grid, so a piece's direction
+  // is quantised by up to atan(1 / length): a side tilted by 5 deg is traced as a level stretch
+  // and a one-pixel step (the in-flight board's top side, frame 8: pieces at 0 and 4.9 deg, one
+  // level px apart, never merged within 3 deg). Merged within that quantisation (9.5 deg for the
+  // shortest pieces, 6 px); merge_line_px still bounds how far off the line a piece may lie.
   RectDetectorOptions so = o;
   so.bridge_gap_frac = 0.0;
   so.curved_step_deg = 0.0;
-  const std::vector<ri::Seg> segs =
-      ri::BuildSegments(ri::TracePieces(le.edges, std::max(6, min_seg / 3), o.segment_fit_px),
-                        le.smooth, cam, so, diag, min_seg);
+  so.merge_angle_deg = std::max(o.merge_angle_deg, std::atan(1.0 / min_piece) * 180.0 / M_PI);
+  const std::vector<ri::Seg> segs = ri::BuildSegments(
+      ri::TracePieces(le.edges, min_piece, o.segment_fit_px), le.smooth, cam, so, diag, min_seg);
   const double min_side = o.min_side_frac * diag;
   for (const ri::Quad& lq : ri::FindQuads(ri::FindJunctions(segs, o), min_side, o.max_hypotheses)) {
     ri::Quad q;
