@@ -370,6 +370,9 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   // the level, a search wide enough for the level's corner error scaled up.
   const PinholeRadtan* cam = camera && camera->HasDistortion() ? camera : nullptr;
   RectDetectorOptions fo = o;
+  // The frame-outline rule ran on the level (its corners are already on the outline); here it
+  // would read the band far from the sides, where `smooth` holds no data.
+  fo.frame_band_max_frac = 0.0;
   fo.search_px = std::max(o.search_px, 1.5 * s);
   fo.search_step_px = std::min(fo.search_px, o.search_step_px);
   cv::Mat smooth;
