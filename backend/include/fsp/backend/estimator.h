@@ -145,10 +145,12 @@ struct ZeroVelocityOptions {
   // below this (the IMU's spread is not a test: on the ground with motors running a vehicle
   // vibrates, EuRoC V1_01: accelerometer std 0.6-2 m/s^2) [rad/s].
   double max_turn_rate = 0.02;
-  // Every object seen by both keyframes moved less than this (mean corner displacement) [px]; a
-  // keyframe that shares no object with the previous one is never taken as still (a smooth flight
-  // at constant velocity has a still IMU too).
-  double max_disparity_px = 0.5;
+  // The corners of the objects seen by both keyframes moved no more than their noise (the
+  // observation σ, FspFactorOptions::sigma_px) explains: two chi-square tests (zero_velocity.h),
+  // each accepted below this quantile. Lower: a slow motion is found sooner, a still keyframe is
+  // more often missed. A keyframe that shares no object with the previous one is never taken as
+  // still (a smooth flight at constant velocity has a still IMU too).
+  double confidence = 0.95;
   double velocity_sigma = 0.01;  // σ of the zero-velocity prior [m/s]
   bool Check(std::string* why) const;
 };
