@@ -321,7 +321,15 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
   kf->observations = std::move(obs);
   if (kf->preint && prev_kf && Still(*prev_kf, *kf)) {
     kf->still = true;
-    if (kf->keyframe) ++summary.zero_velocity_keyframes;
+    if (kf->keyframe) {
+      ++summary.zero_velocity_keyframes;
+      std::vector<std::pair<double, double>>& z = summary.zero_velocity_stretches;
+      const double from = NsToSeconds(prev_kf->state.t_ns), to = NsToSeconds(t_ns);
+      if (!z.empty() && z.back().second == from)
+        z.back().second = to;
+      else
+        z.emplace_back(from, to);
+    }
   }
   keyframes.push_back(std::move(kf));
   output.push_back(keyframes.back()->state.ToStateSample());

@@ -1,5 +1,6 @@
 // The image half of the zero-velocity detection (zero_velocity.h): the chi-square quantile, and the
-// corner-motion tests on synthetic objects at a given corner noise, standing still and moving slowly.
+// corner-motion tests on synthetic objects at a given corner noise, standing still and moving
+// slowly.
 #include <cmath>
 #include <random>
 #include <utility>

@@ -40,6 +40,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fsp/backend/fsp_factor.h"
@@ -266,6 +267,9 @@ struct EstimatorSummary {
   int marginalizations = 0;
   int marginalization_failures = 0;  // Schur complement failed: the prior was dropped
   int zero_velocity_keyframes = 0;   // keyframes found standing still (ZeroVelocityOptions)
+  // The stretches found standing still, [from, to] keyframe times as in trajectory.tum [s]: the
+  // keyframes of each stretch and the one before them.
+  std::vector<std::pair<double, double>> zero_velocity_stretches;
   std::vector<double>
       backend_ms;               // wall time of each frame's update (solve + marginalisation) [ms]
   double batch_solve_ms = 0.0;  // the final full solve (batch mode) [ms]

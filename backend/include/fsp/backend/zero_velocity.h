@@ -1,5 +1,6 @@
 // The image half of the zero-velocity detection (ZeroVelocityOptions, backend/README.md, "Standing
-// still"): did the corners of the objects seen by two keyframes move more than their noise explains?
+// still"): did the corners of the objects seen by two keyframes move more than their noise
+// explains?
 //
 // Standing still, a corner seen twice with independent noise σ per coordinate is displaced by
 // d ~ N(0, 2σ² I). Two chi-square tests over the objects both keyframes see, each accepted below
@@ -25,10 +26,10 @@ namespace fsp::backend {
 double ChiSquareQuantile(double probability, int dof);
 
 struct CornerMotionTest {
-  int objects = 0;            // objects seen by both keyframes
-  double shift_chi2 = 0.0;    // Σ over objects of 4|d̄|²/(2σ²), dof 2 x objects
-  double whole_chi2 = 0.0;    // Σ over corners of |d|²/(2σ²), dof 8 x objects
-  bool still = false;         // objects > 0 and both below their quantile
+  int objects = 0;          // objects seen by both keyframes
+  double shift_chi2 = 0.0;  // Σ over objects of 4|d̄|²/(2σ²), dof 2 x objects
+  double whole_chi2 = 0.0;  // Σ over corners of |d|²/(2σ²), dof 8 x objects
+  bool still = false;       // objects > 0 and both below their quantile
 };
 
 // The two tests on the corners of the same objects in two keyframes (pairs: earlier, later), at
