@@ -146,7 +146,7 @@ bool Estimator::Impl::Still(const Keyframe& prev, const Keyframe& kf) const {
   // The objects both keyframes see did not move beyond their corner noise (zero_velocity.h).
   std::vector<std::pair<Corners, Corners>> pairs;
   for (const ObjectObservation& o : kf.observations)
-    for (const ObjectObservation& p : prev.observations)
+    for (const ObjectObservation& p : still_reference)
       if (p.object_id == o.object_id) pairs.emplace_back(p.corners, o.corners);
   return TestCornerMotion(pairs, options.factor.sigma_px, z.confidence).still;
 }
@@ -331,6 +331,7 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
         z.emplace_back(from, to);
     }
   }
+  if (kf->keyframe && !kf->still) still_reference = kf->observations;
   keyframes.push_back(std::move(kf));
   output.push_back(keyframes.back()->state.ToStateSample());
   if (keyframes.back()->keyframe) ++summary.keyframes;
