@@ -86,7 +86,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.global.budget_yaw_per_m", &e.global.budget_yaw_per_m, kNonNegative},
       {"estimator.zero_velocity.enabled", &e.zero_velocity.enabled, kAny},
       {"estimator.zero_velocity.max_turn_rate", &e.zero_velocity.max_turn_rate, kPositive},
-      {"estimator.zero_velocity.max_disparity_px", &e.zero_velocity.max_disparity_px, kPositive},
+      {"estimator.zero_velocity.confidence", &e.zero_velocity.confidence, Range{0.5, true, 1.0}},
       {"estimator.zero_velocity.velocity_sigma", &e.zero_velocity.velocity_sigma, kPositive},
       {"estimator.faults.max_imu_gap_s", &e.faults.max_imu_gap_s, kPositive},
       {"estimator.faults.gap_max_acc", &e.faults.gap_max_acc, kPositive},

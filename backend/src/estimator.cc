@@ -23,6 +23,7 @@
 #include "fsp/backend/priors.h"
 #include "fsp/backend/reanchor.h"
 #include "fsp/backend/static_init.h"
+#include "fsp/backend/zero_velocity.h"
 #include "fsp/common/error.h"
 #include "fsp/common/time.h"
 
@@ -50,8 +51,9 @@ bool GlobalOptions::Check(std::string* why) const {
 }
 
 bool ZeroVelocityOptions::Check(std::string* why) const {
-  const bool ok = max_turn_rate > 0.0 && max_disparity_px > 0.0 && velocity_sigma > 0.0;
-  if (why) *why = ok ? "" : "every threshold and sigma must be > 0";
+  const bool ok =
+      max_turn_rate > 0.0 && confidence > 0.5 && confidence < 1.0 && velocity_sigma > 0.0;
+  if (why) *why = ok ? "" : "max_turn_rate and velocity_sigma must be > 0, confidence in (0.5, 1)";
   return ok;
 }
 
@@ -141,17 +143,12 @@ bool Estimator::Impl::Still(const Keyframe& prev, const Keyframe& kf) const {
   for (const ImuSample& s : samples) g_mean += s.gyro;
   g_mean /= static_cast<double>(samples.size());
   if ((g_mean - prev.state.gyro_bias()).norm() > z.max_turn_rate) return false;
-  int shared = 0;
-  for (const ObjectObservation& o : kf.observations) {
-    for (const ObjectObservation& p : prev.observations) {
-      if (p.object_id != o.object_id) continue;
-      double d = 0.0;
-      for (int j = 0; j < 4; ++j) d += (o.corners[j] - p.corners[j]).norm() / 4.0;
-      if (d > z.max_disparity_px) return false;
-      ++shared;
-    }
-  }
-  return shared > 0;
+  // The objects both keyframes see did not move beyond their corner noise (zero_velocity.h).
+  std::vector<std::pair<Corners, Corners>> pairs;
+  for (const ObjectObservation& o : kf.observations)
+    for (const ObjectObservation& p : still_reference)
+      if (p.object_id == o.object_id) pairs.emplace_back(p.corners, o.corners);
+  return TestCornerMotion(pairs, options.factor.sigma_px, z.confidence).still;
 }
 
 void Estimator::Impl::InitializeNewObjects(Keyframe* kf) {
@@ -324,8 +321,17 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
   kf->observations = std::move(obs);
   if (kf->preint && prev_kf && Still(*prev_kf, *kf)) {
     kf->still = true;
-    if (kf->keyframe) ++summary.zero_velocity_keyframes;
+    if (kf->keyframe) {
+      ++summary.zero_velocity_keyframes;
+      std::vector<std::pair<double, double>>& z = summary.zero_velocity_stretches;
+      const double from = NsToSeconds(prev_kf->state.t_ns), to = NsToSeconds(t_ns);
+      if (!z.empty() && z.back().second == from)
+        z.back().second = to;
+      else
+        z.emplace_back(from, to);
+    }
   }
+  if (kf->keyframe && !kf->still) still_reference = kf->observations;
   keyframes.push_back(std::move(kf));
   output.push_back(keyframes.back()->state.ToStateSample());
   if (keyframes.back()->keyframe) ++summary.keyframes;

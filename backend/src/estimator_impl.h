@@ -244,8 +244,12 @@ struct Estimator::Impl {
   }
 
   // Whether the vehicle stood still between keyframes `prev` and `kf` (ZeroVelocityOptions): no
-  // mean turn and every object seen by both at the same place in the image.
+  // mean turn since `prev`, and the objects `kf` shares with still_reference where they were then.
   bool Still(const Keyframe& prev, const Keyframe& kf) const;
+  // The observations of the newest keyframe not found standing still: a stand-still is tested
+  // against where it began, not against the previous keyframe, so that a slow motion (a take-off)
+  // cannot pass as a series of steps each below the corner noise.
+  std::vector<ObjectObservation> still_reference;
 
   ceres::CostFunction* MakeZeroVelocityPrior(const Keyframe& kf) const {
     Eigen::Matrix<double, 9, 1> still, sigma;

@@ -1,0 +1,48 @@
+#include "fsp/backend/zero_velocity.h"
+
+#include <cmath>
+
+namespace fsp::backend {
+namespace {
+
+// P(X > x) for X ~ χ²(dof), dof even: e^(-x/2) Σ_{i < dof/2} (x/2)^i / i!.
+double ChiSquareSurvival(double x, int dof) {
+  double term = 1.0, sum = 1.0;
+  for (int i = 1; i < dof / 2; ++i) {
+    term *= 0.5 * x / i;
+    sum += term;
+  }
+  return std::exp(-0.5 * x) * sum;
+}
+
+}  // namespace
+
+double ChiSquareQuantile(double probability, int dof) {
+  double lo = 0.0, hi = dof + 20.0 * std::sqrt(2.0 * dof) + 50.0;
+  for (int i = 0; i < 100; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (1.0 - ChiSquareSurvival(mid, dof) < probability ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+CornerMotionTest TestCornerMotion(const std::vector<std::pair<Corners, Corners>>& pairs,
+                                  double sigma_px, double confidence) {
+  CornerMotionTest t;
+  const double var = 2.0 * sigma_px * sigma_px;  // of each coordinate of a displacement
+  for (const auto& [before, after] : pairs) {
+    Vec2 mean = Vec2::Zero();
+    for (int j = 0; j < 4; ++j) {
+      const Vec2 d = after[j] - before[j];
+      mean += d / 4.0;
+      t.whole_chi2 += d.squaredNorm() / var;
+    }
+    t.shift_chi2 += 4.0 * mean.squaredNorm() / var;
+    ++t.objects;
+  }
+  t.still = t.objects > 0 && t.shift_chi2 <= ChiSquareQuantile(confidence, 2 * t.objects) &&
+            t.whole_chi2 <= ChiSquareQuantile(confidence, 8 * t.objects);
+  return t;
+}
+
+}  // namespace fsp::backend
