@@ -469,7 +469,7 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
                                    const EdgeProbe& probe, const std::vector<Mat3>& Ks,
                                    double min_gradient) {
   const RectDetectorOptions& o = probe.o;
-  std::mt19937 rng;
+  std::mt19937 rng(o.seed);
   std::vector<Quad> refined;
   // The coarse pass of the texture hypotheses: the same probe with a wider search.
   RectDetectorOptions wide = o;
@@ -486,8 +486,6 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
                              2.0 * o.search_px + o.max_corner_outside_px;
     if (CornerOutside(q.c, probe.cam, probe.smooth.cols, probe.smooth.rows) > reach_out) continue;
     const Quad hypothesis = q;
-    // Each hypothesis from the same seed: its RANSAC does not depend on which others came before.
-    rng.seed(o.seed);
     if (RefineQuad(probe, segs, min_gradient, &rng, &q, &q.edges)) {
       refined.push_back(q);
       continue;
