@@ -251,13 +251,8 @@ struct Estimator::Impl {
   // cannot pass as a series of steps each below the corner noise.
   std::vector<ObjectObservation> still_reference;
 
-  ceres::CostFunction* MakeZeroVelocityPrior(const Keyframe& kf) const {
-    Eigen::Matrix<double, 9, 1> still, sigma;
-    still << Vec3::Zero(), kf.state.gyro_bias(), kf.state.acc_bias();
-    sigma << Vec3::Constant(options.zero_velocity.velocity_sigma), Vec3::Constant(1e6),
-        Vec3::Constant(1e6);  // the biases are free
-    return new SpeedBiasPrior(still, sigma);
-  }
+  // A standing-still keyframe's prior: zero velocity, the biases free.
+  ceres::CostFunction* MakeZeroVelocityPrior(const Keyframe& kf) const;
 
   // Removes the newest frame (not a keyframe) from the window: its pose was reported, its
   // observations are forgotten, and the next frame's IMU factor starts at the last keyframe.
@@ -395,14 +390,8 @@ struct Estimator::Impl {
   static ceres::CostFunction* MakeGaugeBiasPrior(const Gauge& g) {
     return new SpeedBiasPrior(g.sb0, g.sigma_sb);
   }
-  ceres::CostFunction* MakeGapPrior(double dt_s) const {
-    ImuGapPriorOptions o;
-    o.max_acc = options.faults.gap_max_acc;
-    o.max_rate = options.faults.gap_max_rate;
-    o.gyro_walk = options.imu.noise.gyroscope_random_walk;
-    o.acc_walk = options.imu.noise.accelerometer_random_walk;
-    return MakeImuGapPrior(dt_s, o);
-  }
+  // Bridges an IMU gap of dt_s seconds (FaultOptions): a constant-velocity motion prior.
+  ceres::CostFunction* MakeGapPrior(double dt_s) const;
 
   // --- Faults ------------------------------------------------------------------------------------
   // The values a solve may change, to restore when its result is rejected.

@@ -127,6 +127,23 @@ std::string Estimator::Impl::Diverged(const ceres::Solver::Summary& s, const Sna
   return "";
 }
 
+ceres::CostFunction* Estimator::Impl::MakeZeroVelocityPrior(const Keyframe& kf) const {
+  Eigen::Matrix<double, 9, 1> still, sigma;
+  still << Vec3::Zero(), kf.state.gyro_bias(), kf.state.acc_bias();
+  sigma << Vec3::Constant(options.zero_velocity.velocity_sigma), Vec3::Constant(1e6),
+      Vec3::Constant(1e6);  // the biases are free
+  return new SpeedBiasPrior(still, sigma);
+}
+
+ceres::CostFunction* Estimator::Impl::MakeGapPrior(double dt_s) const {
+  ImuGapPriorOptions o;
+  o.max_acc = options.faults.gap_max_acc;
+  o.max_rate = options.faults.gap_max_rate;
+  o.gyro_walk = options.imu.noise.gyroscope_random_walk;
+  o.acc_walk = options.imu.noise.accelerometer_random_walk;
+  return MakeImuGapPrior(dt_s, o);
+}
+
 std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs, int max_iterations,
                                       ceres::Solver::Summary* s, ceres::Problem* problem,
                                       size_t free_from) {
