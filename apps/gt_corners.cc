@@ -80,11 +80,13 @@ GtCornersFrontend::GtCornersFrontend(const std::string& input, const GtCornersOp
 
   // Corner noise: u_j += σ n, v_j += σ n', n ~ N(0, 1), drawn in file order (u1, v1, ..., v4 per
   // row).
-  std::mt19937 rng(options.seed);
+  // Rows of objects partly in view draw from their own stream, so that the fully visible rows'
+  // noise does not depend on them.
+  std::mt19937 rng(options.seed), rng_partial(options.seed + 1);
   std::normal_distribution<double> normal(0.0, 1.0);
   stats_.rows = static_cast<int>(rows.size());
   for (const CornerRow& row : rows) {
-    if (!row.fully_visible) {
+    if (!row.fully_visible && CountSeen(row.visible) < options.min_visible_corners) {
       ++stats_.rows_not_visible;
       continue;
     }
@@ -98,10 +100,13 @@ GtCornersFrontend::GtCornersFrontend(const std::string& input, const GtCornersOp
     obs.object_id = row.object_id;
     obs.object_class = cls->second;
     obs.corners = row.corners;
+    obs.seen = row.visible;
+    if (!row.fully_visible) ++stats_.rows_partial;
     if (options.pixel_sigma > 0.0) {
+      std::mt19937& r = row.fully_visible ? rng : rng_partial;
       for (Vec2& c : obs.corners) {
-        c.x() += options.pixel_sigma * normal(rng);
-        c.y() += options.pixel_sigma * normal(rng);
+        c.x() += options.pixel_sigma * normal(r);
+        c.y() += options.pixel_sigma * normal(r);
       }
     }
     by_time_[row.t_ns].push_back(obs);
@@ -111,7 +116,8 @@ GtCornersFrontend::GtCornersFrontend(const std::string& input, const GtCornersOp
 ExternalCornersFrontend::ExternalCornersFrontend(const std::string& corners,
                                                  const std::string& objects,
                                                  const Calibration& calibration,
-                                                 const std::vector<int64_t>& frame_times) {
+                                                 const std::vector<int64_t>& frame_times,
+                                                 int min_visible_corners) {
   observations_path_ = corners;
   if (!fs::is_regular_file(corners)) throw InputError(corners, 0, "corners file not found");
   const std::vector<CornerRow> rows = ReadCornerRows(corners);  // columns, numbers, time order
@@ -137,12 +143,14 @@ ExternalCornersFrontend::ExternalCornersFrontend(const std::string& corners,
       }
       fail(what);
     }
-    if (!row.fully_visible) {
+    if (!row.fully_visible && CountSeen(row.visible) < min_visible_corners) {
       ++stats_.rows_not_visible;
       continue;
     }
     ObjectObservation obs;
     obs.t_ns = t_ns;
+    obs.seen = row.visible;
+    if (!row.fully_visible) ++stats_.rows_partial;
     obs.object_id = row.object_id;
     if (!objects.empty()) {
       const auto cls = classes.find(row.object_id);
@@ -151,8 +159,8 @@ ExternalCornersFrontend::ExternalCornersFrontend(const std::string& corners,
       obs.object_class = cls->second;
     }
     for (int j = 0; j < 4; ++j) {
-      obs.corners[j] =
-          camera.HasDistortion() ? camera.UndistortPixel(row.corners[j]) : row.corners[j];
+      obs.corners[j] = camera.HasDistortion() && obs.seen[j] ? camera.UndistortPixel(row.corners[j])
+                                                             : row.corners[j];
     }
     std::vector<ObjectObservation>& frame = by_time_[t_ns];
     if (std::any_of(frame.begin(), frame.end(),

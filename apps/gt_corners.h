@@ -1,6 +1,8 @@
 // The front ends that read their corners from a file instead of detecting rectangles in the images
 // (no pixels are needed). Both read observations_gt.csv's columns with ReadCornerRows
-// (t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible]) and drop the rows not fully visible:
+// (t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible[,visible_corners]]) and hand out the rows
+// of objects partly in view with the corners they show (at least min_visible_corners of them; a
+// file without visible_corners gives fully visible rows only):
 //  - gt-corners (`fsp run --frontend gt-corners`): a rendered sequence's ground-truth corner
 //    projections (observations_gt.csv, undistorted pixels) plus Gaussian pixel noise: the paper's
 //    own experiment, which measures the back end alone. Object classes come from objects_gt.json.
@@ -32,7 +34,8 @@ std::map<int, ObjectClass> ReadObjectClasses(const std::string& path);
 
 struct CornerFileStats {
   int rows = 0;              // rows in the corners file
-  int rows_not_visible = 0;  // dropped: fully_visible = 0
+  int rows_not_visible = 0;  // dropped: fully_visible = 0 (and too few corners in view)
+  int rows_partial = 0;      // handed out with some corners not seen (gt-corners)
   int frames_matched = 0;    // frames given to Process() that had rows
   int observations = 0;      // observations handed out
 };
@@ -57,7 +60,8 @@ class GtCornersFrontend : public CornerFileFrontend {
  public:
   // Reads ROOT/observations_gt.csv and ROOT/objects_gt.json (ROOT = SequenceRootOf(input)) and
   // draws the noise of every fully visible row up front, in file order, from
-  // std::mt19937(options.seed): the noisy corners do not depend on which frames are processed
+  // std::mt19937(options.seed) (rows partly in view: std::mt19937(options.seed + 1)): the noisy
+  // corners do not depend on which frames are processed
   // (--realtime may drop some). Throws InputError
   // ("gt-corners needs a rendered sequence: FILE not found", or naming the file and the problem).
   GtCornersFrontend(const std::string& input, const GtCornersOptions& options);
@@ -72,11 +76,14 @@ class GtCornersFrontend : public CornerFileFrontend {
 // single-view initialisation its width prior; without it every object is of class unknown. Throws
 // InputError ("FILE:LINE: what") on a missing or malformed file, a non-finite value, times going
 // backwards, a time that matches none of FRAME_TIMES (the input's frame times, offset included),
-// an object twice in one frame, an object OBJECTS does not list, or a file without rows.
+// an object twice in one frame, an object OBJECTS does not list, or a file without rows. A row not
+// fully visible is used with the corners its visible_corners column names when there are at least
+// `min_visible_corners` (GtCornersOptions'); without the column it is dropped.
 class ExternalCornersFrontend : public CornerFileFrontend {
  public:
   ExternalCornersFrontend(const std::string& corners, const std::string& objects,
-                          const Calibration& calibration, const std::vector<int64_t>& frame_times);
+                          const Calibration& calibration, const std::vector<int64_t>& frame_times,
+                          int min_visible_corners = 2);
 };
 
 // One observations.csv row per observation (no visibility flag is written for a run's output).

@@ -132,7 +132,8 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
     source = OpenSource(source_options);
     if (external) {
       corner_file = std::make_unique<ExternalCornersFrontend>(
-          request.corners, request.objects, source->calibration(), source->frame_times());
+          request.corners, request.objects, source->calibration(), source->frame_times(),
+          config.gt_corners.min_visible_corners);
     }
   }
 
@@ -226,9 +227,16 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
     }
     frontend_ms.push_back(out.frontend_ms);
     backend_ms.push_back(out.backend_ms);
-    for (const ObjectObservation& o : out.observations) produced.push_back(ToCornerRow(o));
+    // observations.csv and the video hold boxes: objects wholly in view (gt-corners hands the back
+    // end the corners an object partly in view shows as well; run.json counts them).
+    std::vector<ObjectObservation> boxes;
+    for (const ObjectObservation& o : out.observations) {
+      if (!o.Complete()) continue;
+      produced.push_back(ToCornerRow(o));
+      boxes.push_back(o);
+    }
     if (video) {
-      video->Add(image, out.observations, map,
+      video->Add(image, boxes, map,
                  latest && out.estimator_initialized ? std::optional<Rigid3>(latest->T_W_B)
                                                      : std::nullopt);
       window.Show(video->last());

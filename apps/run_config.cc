@@ -82,6 +82,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.global.loop_accept_px", &e.global.loop_accept_px, kNonNegative},
       {"estimator.global.budget_m", &e.global.budget_m, kNonNegative},
       {"estimator.global.budget_per_m", &e.global.budget_per_m, kNonNegative},
+      {"estimator.global.budget_blind_acc", &e.global.budget_blind_acc, kNonNegative},
       {"estimator.global.budget_yaw_deg", &e.global.budget_yaw_deg, kNonNegative},
       {"estimator.global.budget_yaw_per_m", &e.global.budget_yaw_per_m, kNonNegative},
       {"estimator.zero_velocity.enabled", &e.zero_velocity.enabled, kAny},
@@ -144,6 +145,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"imu.accelerometer_random_walk", &c.imu.accelerometer_random_walk, kPositive},
       {"frontend.gt_corners.pixel_sigma", &c.gt_corners.pixel_sigma, kNonNegative},
       {"frontend.gt_corners.seed", &c.gt_corners.seed, kAny},
+      {"frontend.gt_corners.min_visible_corners", &c.gt_corners.min_visible_corners, kAny},
       {"frontend.detect_every", &f.detect_every, kNonNegative},
       {"frontend.confirm_detections", &f.confirm_detections, kNonNegative},
       {"frontend.confirm_within_frames", &f.confirm_within_frames, kAtLeastOne},
@@ -480,6 +482,10 @@ class ConfigParser {
 bool GtCornersOptions::Check(std::string* why) const {
   if (!(pixel_sigma >= 0.0) || !std::isfinite(pixel_sigma)) {
     if (why) *why = "frontend.gt_corners.pixel_sigma must be finite and >= 0";
+    return false;
+  }
+  if (min_visible_corners < 2 || min_visible_corners > 4) {
+    if (why) *why = "frontend.gt_corners.min_visible_corners must be 2, 3 or 4";
     return false;
   }
   return true;

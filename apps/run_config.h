@@ -42,6 +42,10 @@ struct GtCornersOptions {
   double pixel_sigma = 1.0;
   // Seed of the noise generator (std::mt19937); the same seed gives the same noisy corners.
   uint32_t seed = 1;
+  // A row of an object partly in view (fully_visible 0) is handed out with the corners it shows
+  // when it shows at least this many (2..4; 4: only fully visible rows). Needs the file's
+  // visible_corners column (sequences rendered without it give fully visible rows only).
+  int min_visible_corners = 2;
   bool Check(std::string* why) const;
 };
 

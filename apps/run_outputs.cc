@@ -140,6 +140,8 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                     {"init_in_motion", s.init_in_motion},
                     {"init_t_s", s.init_t_s},
                     {"observations_used", s.observations_used},
+                    {"observations_partial", s.observations_partial},
+                    {"partial_dropped", s.partial_dropped},
                     {"observations_rejected", s.observations_rejected},
                     {"reanchors", s.reanchors},
                     {"marginalizations", s.marginalizations},

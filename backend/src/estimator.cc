@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <deque>
+#include <iterator>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -42,7 +43,7 @@ bool GlobalOptions::Check(std::string* why) const {
   const bool ok = every_keyframes >= 1 && max_iterations >= 1 && final_iterations >= 1 &&
                   apply_after_keyframes >= 0 && max_free_keyframes >= 0 && loop_direct_px >= 0.0 &&
                   loop_accept_px >= loop_direct_px && budget_m >= 0.0 && budget_per_m >= 0.0 &&
-                  budget_yaw_deg >= 0.0 && budget_yaw_per_m >= 0.0;
+                  budget_blind_acc >= 0.0 && budget_yaw_deg >= 0.0 && budget_yaw_per_m >= 0.0;
   if (why)
     *why = ok ? ""
               : "every_keyframes and the iterations must be >= 1; apply_after_keyframes, "
@@ -147,17 +148,25 @@ bool Estimator::Impl::Still(const Keyframe& prev, const Keyframe& kf) const {
   std::vector<std::pair<Corners, Corners>> pairs;
   for (const ObjectObservation& o : kf.observations)
     for (const ObjectObservation& p : still_reference)
-      if (p.object_id == o.object_id) pairs.emplace_back(p.corners, o.corners);
+      if (p.object_id == o.object_id && p.Complete() && o.Complete())
+        pairs.emplace_back(p.corners, o.corners);
   return TestCornerMotion(pairs, options.factor.sigma_px, z.confidence).still;
 }
 
 void Estimator::Impl::InitializeNewObjects(Keyframe* kf) {
   const Rigid3 T_W_C = CameraPose(*kf);
   const int first_in_window = keyframes[window_begin]->index;
+  std::vector<int> waiting;  // partial views of returning objects that do not close their loop
   for (const ObjectObservation& o : kf->observations) {
     auto found = objects.find(o.object_id);
     const bool returning = found != objects.end() && options.mode == EstimatorMode::kWindow &&
                            found->second->last_seen < first_in_window;
+    if (!o.Complete()) {
+      // An object partly in view starts from nothing (its views count once a whole view starts
+      // it), and closes a loop only where it is predicted (no pre-alignment from a part).
+      if (returning && !ClosesDirectly(*found->second, T_W_C, o)) waiting.push_back(o.object_id);
+      continue;
+    }
     if (returning &&
         (options.global.enabled ? !CloseLoop(found->second.get(), kf, o.corners)
                                 : !ConsistentWithMap(*found->second, T_W_C, o.corners))) {
@@ -179,11 +188,34 @@ void Estimator::Impl::InitializeNewObjects(Keyframe* kf) {
     obj->id = o.object_id;
     obj->object_class = o.object_class;
     obj->anchor = kf;
+    // Views of it partly in view from earlier window keyframes count from now on.
     obj->first_seen = kf->index;
+    for (size_t i = window_begin; i < keyframes.size() && keyframes[i].get() != kf; ++i) {
+      const std::vector<ObjectObservation>& seen = keyframes[i]->observations;
+      if (std::any_of(seen.begin(), seen.end(), [&](const ObjectObservation& p) {
+            return p.object_id == o.object_id && !p.Complete();
+          })) {
+        obj->first_seen = keyframes[i]->index;
+        break;
+      }
+    }
     obj->landmark = Landmark::FromSingleView(options.landmarks, s.landmark);
     obj->width_prior_m = s.landmark.Width();
     objects[o.object_id] = std::move(obj);
   }
+  std::vector<ObjectObservation>& obs = kf->observations;
+  const auto end = std::remove_if(obs.begin(), obs.end(), [&](const ObjectObservation& o) {
+    return !o.Complete() && std::count(waiting.begin(), waiting.end(), o.object_id) > 0;
+  });
+  summary.partial_dropped += static_cast<int>(obs.end() - end);
+  obs.erase(end, obs.end());
+}
+
+bool Estimator::Impl::ClosesDirectly(const Object& obj, const Rigid3& T_W_C,
+                                     const ObjectObservation& o) {
+  const std::optional<double> e = PredictionError(obj, T_W_C, o.corners, o.seen);
+  if (!options.global.enabled) return e && *e <= options.reinit_gate_px;
+  return e && *e <= options.global.loop_direct_px && AcceptLoop(obj);
 }
 
 void Estimator::Impl::Restart(const std::string& why) {
@@ -343,6 +375,7 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
       ++it->second->observations;
       it->second->last_seen = keyframes.back()->index;
       ++summary.observations_used;
+      if (!o.Complete()) ++summary.observations_partial;
     }
   }
   if (options.mode == EstimatorMode::kWindow) {
@@ -394,7 +427,11 @@ bool Estimator::AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& obs
   d.NoteFrame(t_ns, !observations.empty());
   if (!d.summary.initialized) {
     if (!d.summary.init_failure.empty()) return false;
-    d.pending.emplace_back(t_ns, observations);
+    // The initialisation works from whole objects.
+    std::vector<ObjectObservation> whole;
+    std::copy_if(observations.begin(), observations.end(), std::back_inserter(whole),
+                 [](const ObjectObservation& o) { return o.Complete(); });
+    d.pending.emplace_back(t_ns, std::move(whole));
     return d.TryInitialize();
   }
   d.AddKeyframe(t_ns, observations, nullptr);

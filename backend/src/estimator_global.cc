@@ -70,7 +70,13 @@ bool Estimator::Impl::PreAlign(Object* obj, Keyframe* kf, const Corners& corners
                                                      keyframes[i - 1]->state.T_W_B().translation())
                                                         .norm();
   const double distance = travelled.back();
-  if (shift.norm() > g.budget_m + g.budget_per_m * distance ||
+  double blind_s = 0.0;  // dead reckoning: keyframes with no object in view
+  for (size_t i = from + 1; i < keyframes.size(); ++i) {
+    if (keyframes[i - 1]->observations.empty())
+      blind_s += NsToSeconds(keyframes[i]->state.t_ns - keyframes[i - 1]->state.t_ns);
+  }
+  if (shift.norm() >
+          g.budget_m + g.budget_per_m * distance + 0.5 * g.budget_blind_acc * blind_s * blind_s ||
       std::abs(yaw) > (g.budget_yaw_deg + g.budget_yaw_per_m * distance) * M_PI / 180.0)
     return false;
   const Snapshot before = Save(from);

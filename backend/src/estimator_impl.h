@@ -82,6 +82,7 @@ struct Object {
   struct PastView {
     Keyframe* keyframe;
     Corners corners;
+    CornerMask seen;
   };
   std::deque<PastView> past;
 };
@@ -238,7 +239,8 @@ struct Estimator::Impl {
     const int first_in_window = keyframes[window_begin]->index;
     for (const ObjectObservation& o : obs) {
       auto it = objects.find(o.object_id);
-      if (it == objects.end() || it->second->last_seen < first_in_window) return true;
+      if (o.Complete() && (it == objects.end() || it->second->last_seen < first_in_window))
+        return true;
     }
     return false;
   }
@@ -267,6 +269,7 @@ struct Estimator::Impl {
       if (it == objects.end()) continue;
       --it->second->observations;
       --summary.observations_used;
+      if (!o.Complete()) --summary.observations_partial;
     }
     keyframes.pop_back();
   }
@@ -312,12 +315,13 @@ struct Estimator::Impl {
   // RMS distance [px] between observed corners and the object's prediction from camera pose T_W_C;
   // nullopt when the object is behind the camera.
   std::optional<double> PredictionError(const Object& obj, const Rigid3& T_W_C,
-                                        const Corners& corners) const {
+                                        const Corners& corners,
+                                        const CornerMask& seen = kAllCorners) const {
     const CornerPrediction p = obj.landmark.Predict(K, T_W_C, CameraPose(*obj.anchor));
     if (!p.in_front) return std::nullopt;
     double sum2 = 0.0;
-    for (int j = 0; j < 4; ++j) sum2 += (p.uv[j] - corners[j]).squaredNorm();
-    return std::sqrt(sum2 / 4.0);
+    for (int j = 0; j < 4; ++j) sum2 += seen[j] ? (p.uv[j] - corners[j]).squaredNorm() : 0.0;
+    return std::sqrt(sum2 / CountSeen(seen));
   }
 
   Rigid3 ObjectPose(const Object& obj) const { return obj.landmark.T_W_O(CameraPose(*obj.anchor)); }
@@ -335,6 +339,10 @@ struct Estimator::Impl {
   // corners within loop_accept_px of their prediction, the loop is rejected (false; the states
   // restored) and the object starts afresh as a new instance.
   bool CloseLoop(Object* obj, Keyframe* kf, const Corners& corners);
+  // A partial view `o` (from camera pose T_W_C) of a returning object: whether it agrees with the
+  // map as it is (within loop_direct_px, the loop then closes; without the global step within
+  // reinit_gate_px). A part is not enough for CloseLoop's pre-alignment or for a new instance.
+  bool ClosesDirectly(const Object& obj, const Rigid3& T_W_C, const ObjectObservation& o);
   // A loop closed: the next global solve frees the keyframes since the object was last seen.
   bool AcceptLoop(const Object& obj);
 
@@ -356,6 +364,7 @@ struct Estimator::Impl {
   // one observation of `obj` from keyframe `kf`. Poses of keyframes that are not variables of this
   // problem (`is_variable` false: they left the window) enter as constants.
   void AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj, const Corners& corners,
+                      const CornerMask& seen,
                       const std::function<bool(const Keyframe*)>& is_variable);
 
   // Observation factors of keyframes [begin, end) and, for every object they see, its past views.

@@ -40,7 +40,7 @@ void Estimator::Impl::AddVisualFactors(ceres::Problem* problem, size_t begin, si
       auto it = objects.find(o.object_id);
       if (it == objects.end() || (it->second->observations >= options.mature_views) != mature)
         continue;
-      AddObservation(problem, kf, it->second.get(), o.corners, is_variable);
+      AddObservation(problem, kf, it->second.get(), o.corners, o.seen, is_variable);
       seen.push_back(it->second.get());
     }
   }
@@ -49,7 +49,7 @@ void Estimator::Impl::AddVisualFactors(ceres::Problem* problem, size_t begin, si
   seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
   for (Object* obj : seen)
     for (const auto& view : obj->past)
-      AddObservation(problem, view.keyframe, obj, view.corners, is_variable);
+      AddObservation(problem, view.keyframe, obj, view.corners, view.seen, is_variable);
 }
 
 void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
@@ -86,7 +86,7 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
 }
 
 void Estimator::Impl::AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj,
-                                     const Corners& corners,
+                                     const Corners& corners, const CornerMask& seen,
                                      const std::function<bool(const Keyframe*)>& is_variable) {
   for (Keyframe* k : {kf, obj->anchor}) {
     if (is_variable(k) || problem->HasParameterBlock(k->state.pose)) continue;
@@ -94,7 +94,7 @@ void Estimator::Impl::AddObservation(ceres::Problem* problem, Keyframe* kf, Obje
     problem->SetParameterBlockConstant(k->state.pose);
   }
   // Nothing added when the object is behind the camera.
-  obj->landmark.AddObservation(problem, corners, kf->state.pose, obj->anchor->state.pose,
+  obj->landmark.AddObservation(problem, corners, seen, kf->state.pose, obj->anchor->state.pose,
                                CameraPose(*kf), CameraPose(*obj->anchor), landmark_context);
 }
 
@@ -173,7 +173,7 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs, int max_ite
       auto it = objs->find(o.object_id);
       if (it != objs->end() && kf->index >= it->second->first_seen &&
           it->second->last_seen >= static_cast<int>(free_from))
-        AddObservation(problem, kf.get(), it->second.get(), o.corners, is_free);
+        AddObservation(problem, kf.get(), it->second.get(), o.corners, o.seen, is_free);
     }
   }
   AddObjectPriors(problem, objs);

@@ -99,7 +99,7 @@ void Estimator::Impl::MarginalizeOldest() {
     auto it = objects.find(o.object_id);
     if (it == objects.end()) continue;
     auto& past = it->second->past;
-    past.push_back({old, o.corners});
+    past.push_back({old, o.corners, o.seen});
     if (static_cast<int>(past.size()) > options.max_past_views) past.pop_front();
   }
   output[old->frame] = old->state.ToStateSample();

@@ -1,6 +1,8 @@
 #include "fsp/backend/fsp_factor.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "fsp/common/error.h"
 
@@ -114,6 +116,18 @@ namespace {
 using Mat85R = Eigen::Matrix<double, 8, 5, Eigen::RowMajor>;
 using Mat84R = Eigen::Matrix<double, 8, 4, Eigen::RowMajor>;
 using Mat87R = Eigen::Matrix<double, 8, 7, Eigen::RowMajor>;
+
+// Corner j not seen: its residuals (2j, 2j + 1) and those rows of every row-major 8 x n Jacobian
+// block are 0.
+void ZeroCornerRows(int j, const std::vector<int32_t>& block_sizes, double* residuals,
+                    double** jacobians) {
+  residuals[2 * j] = residuals[2 * j + 1] = 0.0;
+  if (jacobians == nullptr) return;
+  for (size_t b = 0; b < block_sizes.size(); ++b) {
+    if (jacobians[b] != nullptr)
+      std::fill_n(jacobians[b] + 2 * j * block_sizes[b], 2 * block_sizes[b], 0.0);
+  }
+}
 using Mat35 = Eigen::Matrix<double, 3, 5>;
 
 FspLandmark LandmarkFromBlocks(const double* q_F_O, const double* x) {
@@ -140,8 +154,8 @@ void CornerDirJacobians(const Mat3& R_F_O, const Vec3& sbar, const Vec3& Rs, Mat
 }  // namespace
 
 FspFactor::FspFactor(const Corners& corners_px, const Mat3& K, const Rigid3& T_B_C,
-                     const FspFactorOptions& options)
-    : obs_(corners_px), K_(K), T_B_C_(T_B_C), options_(options) {
+                     const FspFactorOptions& options, const CornerMask& seen)
+    : obs_(corners_px), seen_(seen), K_(K), T_B_C_(T_B_C), options_(options) {
   std::string why;
   FSP_CHECK(options_.Check(&why));
   FSP_CHECK(K_.row(2).isApprox(Eigen::RowVector3d(0.0, 0.0, 1.0)));
@@ -169,6 +183,10 @@ bool FspFactor::Evaluate(double const* const* parameters, double* residuals,
     dphi_dq_FO = LeftRotationJacobianWrtQuat(l.QuatFO());
   }
   for (int j = 0; j < 4; ++j) {
+    if (!seen_[j]) {
+      ZeroCornerRows(j, parameter_block_sizes(), residuals, jacobians);
+      continue;
+    }
     const Vec3 sbar = l.SBar(j);
     const Vec3 Rs = R_F_O * sbar;
     const Vec3 a = ray + Rs;  // l.CornerDirF(j)
@@ -212,8 +230,8 @@ bool FspFactor::Evaluate(double const* const* parameters, double* residuals,
 }
 
 FspAnchorFactor::FspAnchorFactor(const Corners& corners_px, const Mat3& K,
-                                 const FspFactorOptions& options)
-    : obs_(corners_px), K_(K), options_(options) {
+                                 const FspFactorOptions& options, const CornerMask& seen)
+    : obs_(corners_px), seen_(seen), K_(K), options_(options) {
   std::string why;
   FSP_CHECK(options_.Check(&why));
   FSP_CHECK(K_.row(2).isApprox(Eigen::RowVector3d(0.0, 0.0, 1.0)));
@@ -230,6 +248,10 @@ bool FspAnchorFactor::Evaluate(double const* const* parameters, double* residual
   if (want) dphi_dq_FO = LeftRotationJacobianWrtQuat(l.QuatFO());
   const Vec3 ray = l.Ray();
   for (int j = 0; j < 4; ++j) {
+    if (!seen_[j]) {
+      ZeroCornerRows(j, parameter_block_sizes(), residuals, jacobians);
+      continue;
+    }
     const Vec3 sbar = l.SBar(j);
     const Vec3 Rs = R_F_O * sbar;
     const Vec3 h = ray + Rs;  // l.CornerDirF(j)

@@ -33,15 +33,16 @@ bool InsideDepthBox(double log_omega, double min_depth_m, double max_depth_m) {
 // --- FSP: blocks q_F_O (quaternion manifold) and x (log ω bounded); one 8-residual factor --------
 
 bool AddObservationOf(FspLandmark& l, ceres::Problem* problem, const Corners& corners,
-                      double* camera_pose, double* anchor_pose, const Rigid3& T_W_C,
-                      const Rigid3& T_W_F, const LandmarkContext& c) {
+                      const CornerMask& seen, double* camera_pose, double* anchor_pose,
+                      const Rigid3& T_W_C, const Rigid3& T_W_F, const LandmarkContext& c) {
   if (!PredictFspCorners(c.K, T_W_C, T_W_F, l).in_front) return false;
-  ceres::LossFunction* loss = MakeRobustLoss(c.robust, 8).release();
+  ceres::LossFunction* loss = MakeRobustLoss(c.robust, 2 * CountSeen(seen)).release();
   if (camera_pose == anchor_pose) {
-    problem->AddResidualBlock(new FspAnchorFactor(corners, c.K, c.factor), loss, l.q_F_O, l.x);
+    problem->AddResidualBlock(new FspAnchorFactor(corners, c.K, c.factor, seen), loss, l.q_F_O,
+                              l.x);
   } else {
-    problem->AddResidualBlock(new FspFactor(corners, c.K, c.T_B_C, c.factor), loss, camera_pose,
-                              anchor_pose, l.q_F_O, l.x);
+    problem->AddResidualBlock(new FspFactor(corners, c.K, c.T_B_C, c.factor, seen), loss,
+                              camera_pose, anchor_pose, l.q_F_O, l.x);
   }
   problem->SetManifold(l.q_F_O, c.quaternion_manifold);
   BoundLogOmega(problem, l.x, kFspLogOmega, c);
@@ -107,10 +108,11 @@ double ScaleCovarianceOf(const FspLandmark& a, const FspLandmark& b,
 // --- FHP: one block (u, v, log ω) per corner (log ω bounded); one 2-residual factor each --------
 
 bool AddObservationOf(FhpLandmark& l, ceres::Problem* problem, const Corners& corners,
-                      double* camera_pose, double* anchor_pose, const Rigid3& T_W_C,
-                      const Rigid3& T_W_F, const LandmarkContext& c) {
+                      const CornerMask& seen, double* camera_pose, double* anchor_pose,
+                      const Rigid3& T_W_C, const Rigid3& T_W_F, const LandmarkContext& c) {
   if (!PredictFhpCorners(c.K, T_W_C, T_W_F, l).in_front) return false;
   for (int j = 0; j < 4; ++j) {
+    if (!seen[j]) continue;
     ceres::LossFunction* loss = MakeRobustLoss(c.robust, 2).release();
     if (camera_pose == anchor_pose) {
       problem->AddResidualBlock(new FhpAnchorFactor(corners[j], c.K, c.factor), loss, l.corner[j]);
@@ -200,12 +202,13 @@ Landmark Landmark::FromSingleView(LandmarkType type, const FspLandmark& init) {
   return Landmark(init);
 }
 
-bool Landmark::AddObservation(ceres::Problem* problem, const Corners& corners, double* camera_pose,
-                              double* anchor_pose, const Rigid3& T_W_C, const Rigid3& T_W_F,
-                              const LandmarkContext& c) {
+bool Landmark::AddObservation(ceres::Problem* problem, const Corners& corners,
+                              const CornerMask& seen, double* camera_pose, double* anchor_pose,
+                              const Rigid3& T_W_C, const Rigid3& T_W_F, const LandmarkContext& c) {
   return std::visit(
       [&](auto& l) {
-        return AddObservationOf(l, problem, corners, camera_pose, anchor_pose, T_W_C, T_W_F, c);
+        return AddObservationOf(l, problem, corners, seen, camera_pose, anchor_pose, T_W_C, T_W_F,
+                                c);
       },
       l_);
 }

@@ -40,14 +40,15 @@ class Landmark {
   static Landmark FromSingleView(LandmarkType type, const FspLandmark& init);
 
   // --- Problem --------------------------------------------------------------------------------
-  // The factor(s) of one observation (corners in pixels) from the keyframe with body pose block
-  // `camera_pose` (camera pose T_W_C) of the landmark anchored at the keyframe with `anchor_pose`
-  // (T_W_F); the same block: the anchor's own view. Adds the landmark's blocks with their manifold
-  // and clamps and bounds the inverse depth(s) to the box. Adds nothing and returns false when the
-  // landmark is behind the camera.
-  bool AddObservation(ceres::Problem* problem, const Corners& corners, double* camera_pose,
-                      double* anchor_pose, const Rigid3& T_W_C, const Rigid3& T_W_F,
-                      const LandmarkContext& c);
+  // The factor(s) of one observation (corners in pixels, those in `seen`: an object partly in
+  // view gives the corners it shows) from the keyframe with body pose block `camera_pose` (camera
+  // pose T_W_C) of the landmark anchored at the keyframe with `anchor_pose` (T_W_F); the same
+  // block: the anchor's own view. Adds the landmark's blocks with their manifold and clamps and
+  // bounds the inverse depth(s) to the box. Adds nothing and returns false when the landmark is
+  // behind the camera.
+  bool AddObservation(ceres::Problem* problem, const Corners& corners, const CornerMask& seen,
+                      double* camera_pose, double* anchor_pose, const Rigid3& T_W_C,
+                      const Rigid3& T_W_F, const LandmarkContext& c);
   // The prior on the metric width (the class's typical width `width_m`, σ prior_log_omega_sigma
   // in log) when the landmark's blocks are in the problem (priors.h: FSP's LogWidthPrior, FHP's
   // MakeFhpLogWidthPrior). Without parallax (hover) it is all that holds the depth.

@@ -16,7 +16,7 @@ std::vector<CornerRow> ReadCornerRows(const std::string& path) {
   std::vector<std::string> f;
   while (reader.NextRow(&f)) {
     if (!f.empty() && f[0] == "t_ns") continue;  // header without '#'
-    reader.ExpectColumns(f, 10, 11);
+    reader.ExpectColumns(f, 10, 12);
     CornerRow row;
     row.line = reader.line();
     row.t_ns = reader.Int64(f, 0, "t_ns");
@@ -26,10 +26,18 @@ std::vector<CornerRow> ReadCornerRows(const std::string& path) {
       row.corners[j] = Vec2(reader.Double(f, 2 + 2 * j, kNames[2 * j]),
                             reader.Double(f, 3 + 2 * j, kNames[2 * j + 1]));
     }
-    if (f.size() == 11) {
+    if (f.size() >= 11) {
       const int64_t flag = reader.Int64(f, 10, "fully_visible");
       if (flag != 0 && flag != 1) reader.Fail("column 11 (fully_visible) must be 0 or 1");
       row.fully_visible = flag == 1;
+      if (!row.fully_visible) row.visible = {false, false, false, false};
+    }
+    if (f.size() == 12) {
+      const int64_t bits = reader.Int64(f, 11, "visible_corners");
+      if (bits < 0 || bits > 15) reader.Fail("column 12 (visible_corners) must be 0..15");
+      for (int j = 0; j < 4; ++j) row.visible[j] = ((bits >> j) & 1) != 0;
+      if (row.fully_visible != (bits == 15))
+        reader.Fail("column 12 (visible_corners) contradicts column 11 (fully_visible)");
     }
     if (!rows.empty() && row.t_ns < rows.back().t_ns) {
       reader.Fail("timestamp " + std::to_string(row.t_ns) + " goes backwards (previous row has " +
@@ -42,8 +50,8 @@ std::vector<CornerRow> ReadCornerRows(const std::string& path) {
 
 void WriteCornerRows(const std::vector<CornerRow>& rows, const std::string& path, bool with_flag) {
   WriteFileAtomically(path, "observations csv", [&](std::ostream& out) {
-    out << "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4" << (with_flag ? ",fully_visible" : "")
-        << "\n";
+    out << "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4"
+        << (with_flag ? ",fully_visible,visible_corners" : "") << "\n";
     char buf[64];
     for (const CornerRow& r : rows) {
       out << r.t_ns << ',' << r.object_id;
@@ -51,7 +59,12 @@ void WriteCornerRows(const std::vector<CornerRow>& rows, const std::string& path
         std::snprintf(buf, sizeof(buf), ",%.4f,%.4f", c.x(), c.y());
         out << buf;
       }
-      if (with_flag) out << ',' << (r.fully_visible ? 1 : 0);
+      if (with_flag) {
+        int bits = 0;
+        for (int j = 0; j < 4; ++j) bits |= r.visible[j] ? 1 << j : 0;
+        if (!r.fully_visible && bits == 15) bits = 0;  // which corners is not known
+        out << ',' << (r.fully_visible ? 1 : 0) << ',' << bits;
+      }
       out << '\n';
     }
   });

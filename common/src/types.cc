@@ -1,6 +1,12 @@
 #include "fsp/common/types.h"
 
+#include <algorithm>
+
 namespace fsp {
+
+int CountSeen(const CornerMask& seen) {
+  return static_cast<int>(std::count(seen.begin(), seen.end(), true));
+}
 
 const char* ToString(ObjectClass c) {
   switch (c) {

@@ -229,12 +229,11 @@ std::vector<CornerRow> ProjectObjects(const Scene& scene, const Renderer* render
     // Bounding box against the image (pixel centres 0..w-1, so the image spans -0.5..w-0.5).
     if (hi.x() < -0.5 || hi.y() < -0.5 || lo.x() > cam.width - 0.5 || lo.y() > cam.height - 0.5)
       continue;
-    bool visible = true;
-    for (int j = 0; j < 4 && visible; ++j) {
-      visible = cam.InImage(cam.Project(p_C[j])) &&
-                (renderer == nullptr || renderer->PointVisible(T_W_C, o.corners_W[j], o.id));
+    for (int j = 0; j < 4; ++j) {
+      row.visible[j] = cam.InImage(cam.Project(p_C[j])) &&
+                       (renderer == nullptr || renderer->PointVisible(T_W_C, o.corners_W[j], o.id));
     }
-    row.fully_visible = visible;
+    row.fully_visible = row.visible == kAllCorners;
     rows.push_back(row);
   }
   return rows;

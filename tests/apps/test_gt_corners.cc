@@ -28,8 +28,8 @@ Corners TrueCorners(int id, int k) {
   return {Vec2(u0, v0), Vec2(u0 + 10.5, v0), Vec2(u0 + 10.5, v0 - 8.25), Vec2(u0, v0 - 8.25)};
 }
 
-// A EuRoC folder with 4 frames, objects 1 (door) and 2 (tag) seen in every frame; object 2 is not
-// fully visible in frame 2. Returns the frame times.
+// A EuRoC folder with 4 frames, objects 1 (door) and 2 (tag) seen in every frame; object 2 shows
+// one corner only in frame 2. Returns the frame times.
 std::vector<int64_t> MakeSequence(const fs::path& dir) {
   const std::vector<int64_t> t = test::MakeEuroc(dir, 4);
   std::vector<CornerRow> rows;
@@ -39,7 +39,10 @@ std::vector<int64_t> MakeSequence(const fs::path& dir) {
       r.t_ns = t[k];
       r.object_id = id;
       r.corners = TrueCorners(id, k);
-      r.fully_visible = !(id == 2 && k == 2);
+      if (id == 2 && k == 2) {  // one corner in view: too few to be handed out
+        r.fully_visible = false;
+        r.visible = {true, false, false, false};
+      }
       rows.push_back(r);
     }
   }
@@ -86,6 +89,37 @@ TEST(GtCorners, NotFullyVisibleRowsAreDropped) {
   const std::vector<ObjectObservation> obs = fe.Process(t[2]);
   ASSERT_EQ(obs.size(), 1u);
   EXPECT_EQ(obs[0].object_id, 1);
+}
+
+// An object partly in view is handed out with the corners it shows (at least
+// min_visible_corners), its noise drawn from its own stream: the fully visible rows' noisy
+// corners are those of a file without it.
+TEST(GtCorners, PartlyVisibleRowsGiveTheCornersTheyShow) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = MakeSequence(dir);
+  std::vector<CornerRow> rows = ReadCornerRows((dir / "observations_gt.csv").string());
+  CornerRow partial = rows.back();  // object 2 in frame 3, now with corners s1 and s4 only
+  rows.pop_back();
+  WriteCornerRows(rows, (dir / "observations_gt.csv").string(), /*with_flag=*/true);
+  GtCornersFrontend without(dir.string(), Sigma(1.0));
+  partial.fully_visible = false;
+  partial.visible = {true, false, false, true};
+  rows.push_back(partial);
+  WriteCornerRows(rows, (dir / "observations_gt.csv").string(), /*with_flag=*/true);
+  GtCornersOptions four = Sigma(1.0);
+  four.min_visible_corners = 4;
+  GtCornersFrontend with(dir.string(), Sigma(1.0)), whole_only(dir.string(), four);
+  const std::vector<ObjectObservation> obs = with.Process(t[3]);
+  ASSERT_EQ(obs.size(), 2u);
+  EXPECT_TRUE(obs[0].Complete());
+  EXPECT_EQ(obs[1].object_id, 2);
+  EXPECT_EQ(obs[1].seen, (CornerMask{true, false, false, true}));
+  EXPECT_LT((obs[1].corners[0] - TrueCorners(2, 3)[0]).norm(), 5.0);
+  EXPECT_EQ(obs[0].corners, without.Process(t[3]).at(0).corners);  // its own noise stream
+  EXPECT_EQ(with.stats().rows_partial, 1);
+  EXPECT_EQ(with.stats().rows_not_visible, 1);  // object 2 in frame 2: one corner
+  EXPECT_EQ(whole_only.Process(t[3]).size(), 1u);
+  EXPECT_EQ(whole_only.stats().rows_not_visible, 2);
 }
 
 TEST(GtCorners, SameSeedSameNoiseOtherSeedOtherNoise) {
@@ -189,7 +223,10 @@ void WriteDistortedCorners(const fs::path& path, const std::vector<int64_t>& t,
       r.object_id = id;
       const Corners truth = TrueCorners(id, k);
       for (int j = 0; j < 4; ++j) r.corners[j] = camera.DistortPixel(truth[j]);
-      r.fully_visible = !(id == 2 && k == 2);
+      if (id == 2 && k == 2) {  // one corner in view: too few to be handed out
+        r.fully_visible = false;
+        r.visible = {true, false, false, false};
+      }
       rows.push_back(r);
     }
   }

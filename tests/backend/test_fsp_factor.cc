@@ -148,6 +148,58 @@ TEST(FspAnchorFactor, JacobiansMatchNumericAndGradientChecker) {
   }
 }
 
+// An object partly in view: the corners not seen have residual and Jacobian rows 0 (also where
+// they would lie behind the camera), the seen ones are the whole factor's; the Jacobians of both
+// variants still match numeric differentiation.
+TEST(FspFactor, CornersNotSeenGiveZeroRowsAndTheOthersAreUnchanged) {
+  std::mt19937 rng(31);
+  const Mat3 K = test::TestK();
+  PoseManifold pose_manifold;
+  ceres::EigenQuaternionManifold quat_manifold;
+  const CornerMask seen = {true, false, true, false};
+  for (int trial = 0; trial < 10; ++trial) {
+    Scene s = MakeScene(rng);
+    const Corners obs = test::AddNoise(rng, test::ProjectCorners(K, s.T_W_C, s.object), 3.0);
+    FspFactor whole(obs, K, s.T_B_C, FspFactorOptions());
+    FspFactor part(obs, K, s.T_B_C, FspFactorOptions(), seen);
+    const double* p[4] = {s.pose_cam, s.pose_anchor, s.landmark.q_F_O, s.landmark.x};
+    double r_whole[8], r_part[8];
+    Eigen::Matrix<double, 8, 7, Eigen::RowMajor> J_whole, J_part;
+    J_part.setConstant(7.0);  // rows of unseen corners must be overwritten with 0
+    double* jw[4] = {J_whole.data(), nullptr, nullptr, nullptr};
+    double* jp[4] = {J_part.data(), nullptr, nullptr, nullptr};
+    ASSERT_TRUE(whole.Evaluate(p, r_whole, jw));
+    ASSERT_TRUE(part.Evaluate(p, r_part, jp));
+    for (int j = 0; j < 4; ++j) {
+      for (int k = 0; k < 2; ++k) {
+        const int i = 2 * j + k;
+        EXPECT_EQ(r_part[i], seen[j] ? r_whole[i] : 0.0) << "trial " << trial << " row " << i;
+        if (seen[j])
+          EXPECT_TRUE(J_part.row(i) == J_whole.row(i)) << "trial " << trial << " row " << i;
+        else
+          EXPECT_TRUE(J_part.row(i).isZero(0.0)) << "trial " << trial << " row " << i;
+      }
+    }
+    std::vector<double*> params = {s.pose_cam, s.pose_anchor, s.landmark.q_F_O, s.landmark.x};
+    EXPECT_TRUE(test::ExpectFactorJacobiansOk(
+        part, params, {&pose_manifold, &pose_manifold, &quat_manifold, nullptr}, 1e-5));
+    FspAnchorFactor anchor(obs, K, FspFactorOptions(), seen);
+    std::vector<double*> anchor_params = {s.landmark.q_F_O, s.landmark.x};
+    EXPECT_TRUE(
+        test::ExpectFactorJacobiansOk(anchor, anchor_params, {&quat_manifold, nullptr}, 1e-5));
+  }
+  // A corner not seen may lie behind the camera: the factor still evaluates.
+  Scene s = MakeScene(rng);
+  const Corners obs = test::ProjectCorners(K, s.T_W_C, s.object);
+  FspFactor none_seen(obs, K, s.T_B_C, FspFactorOptions(), {false, false, false, false});
+  const Rigid3 T_W_C_back = s.T_W_C * Rigid3(RotY(M_PI), Vec3::Zero());
+  PoseToBlock(T_W_C_back * s.T_B_C.Inverse(), s.pose_cam);
+  const double* p[4] = {s.pose_cam, s.pose_anchor, s.landmark.q_F_O, s.landmark.x};
+  double r[8];
+  EXPECT_TRUE(none_seen.Evaluate(p, r, nullptr));
+  for (double v : r) EXPECT_EQ(v, 0.0);
+}
+
 TEST(FspFactor, AtAnchorPredictionIndependentOfOmegaAndEqualsAnchorVariant) {
   std::mt19937 rng(23);
   const Mat3 K = test::TestK();

@@ -135,14 +135,15 @@ TEST(LandmarkModel, ObservationAddsBlocksFactorsAndDepthBounds) {
     EXPECT_FALSE(l.InProblem(problem));
     l.AddWidthPrior(&problem, s.object.width, c);
     EXPECT_EQ(problem.NumResidualBlocks(), 0);  // not in the problem yet
-    ASSERT_TRUE(l.AddObservation(&problem, z, cam_pose, anchor_pose, T_W_C, s.T_W_F, c));
+    ASSERT_TRUE(
+        l.AddObservation(&problem, z, kAllCorners, cam_pose, anchor_pose, T_W_C, s.T_W_F, c));
     EXPECT_TRUE(l.InProblem(problem));
     EXPECT_EQ(problem.NumResidualBlocks(), e.blocks_per_view);
     EXPECT_EQ(problem.NumResiduals(), 8);
     EXPECT_EQ(problem.NumParameterBlocks(), 2 + e.landmark_blocks);
     // The anchor's own view: the anchor factor(s), on the landmark's blocks only.
-    ASSERT_TRUE(
-        l.AddObservation(&problem, z_anchor, anchor_pose, anchor_pose, s.T_W_F, s.T_W_F, c));
+    ASSERT_TRUE(l.AddObservation(&problem, z_anchor, kAllCorners, anchor_pose, anchor_pose, s.T_W_F,
+                                 s.T_W_F, c));
     EXPECT_EQ(problem.NumResidualBlocks(), 2 * e.blocks_per_view);
     EXPECT_EQ(problem.NumParameterBlocks(), 2 + e.landmark_blocks);
     double cost = -1.0;
@@ -158,7 +159,8 @@ TEST(LandmarkModel, ObservationAddsBlocksFactorsAndDepthBounds) {
     double behind_pose[7];
     PoseToBlock(T_W_Cbehind * c.T_B_C.Inverse(), behind_pose);
     const int before = problem.NumResidualBlocks();
-    EXPECT_FALSE(l.AddObservation(&problem, z, behind_pose, anchor_pose, T_W_Cbehind, s.T_W_F, c));
+    EXPECT_FALSE(l.AddObservation(&problem, z, kAllCorners, behind_pose, anchor_pose, T_W_Cbehind,
+                                  s.T_W_F, c));
     EXPECT_EQ(problem.NumResidualBlocks(), before);
   }
 }
@@ -181,7 +183,8 @@ TEST(LandmarkModel, DepthOutsideTheBoxIsClampedOntoIt) {
     ceres::Problem::Options po;
     po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem problem(po);
-    ASSERT_TRUE(l.AddObservation(&problem, z, anchor_pose, anchor_pose, s.T_W_F, s.T_W_F, c));
+    ASSERT_TRUE(
+        l.AddObservation(&problem, z, kAllCorners, anchor_pose, anchor_pose, s.T_W_F, s.T_W_F, c));
     // On the far bound (not strictly inside), and the depth box no longer includes the truth.
     EXPECT_FALSE(l.DepthInBox(c.min_depth_m, c.max_depth_m));
     EXPECT_TRUE(l.DepthInBox(0.5 * c.min_depth_m, 2.0 * c.max_depth_m));
@@ -201,15 +204,15 @@ TEST(LandmarkModel, FspSizeSigmaMatchesTheLandmarksOwn) {
   PoseToBlock(s.T_W_F * c.T_B_C.Inverse(), poses[0].data());
   problem.AddParameterBlock(poses[0].data(), 7);
   problem.SetParameterBlockConstant(poses[0].data());
-  ASSERT_TRUE(l.AddObservation(&problem, test::ProjectCorners(c.K, s.T_W_F, s.object),
+  ASSERT_TRUE(l.AddObservation(&problem, test::ProjectCorners(c.K, s.T_W_F, s.object), kAllCorners,
                                poses[0].data(), poses[0].data(), s.T_W_F, s.T_W_F, c));
   for (size_t k = 0; k < s.cameras.size(); ++k) {
     double* pose = poses[k + 1].data();
     PoseToBlock(s.cameras[k] * c.T_B_C.Inverse(), pose);
     problem.AddParameterBlock(pose, 7);
     problem.SetParameterBlockConstant(pose);
-    ASSERT_TRUE(l.AddObservation(&problem, test::ProjectCorners(c.K, s.cameras[k], s.object), pose,
-                                 poses[0].data(), s.cameras[k], s.T_W_F, c));
+    ASSERT_TRUE(l.AddObservation(&problem, test::ProjectCorners(c.K, s.cameras[k], s.object),
+                                 kAllCorners, pose, poses[0].data(), s.cameras[k], s.T_W_F, c));
   }
   ceres::Covariance::Options co;
   co.algorithm_type = ceres::DENSE_SVD;

@@ -128,10 +128,13 @@ struct GlobalOptions {
   // [px].
   double loop_accept_px = 15.0;
   // Plausibility budget of a pre-alignment: position correction <= budget_m + budget_per_m x the
-  // distance travelled since the object was last seen, yaw <= budget_yaw_deg + budget_yaw_per_m x
-  // that distance.
+  // distance travelled since the object was last seen + ½ budget_blind_acc T² (T: the time since
+  // then with no object in view, pure IMU dead reckoning, whose drift an accelerometer bias error
+  // of budget_blind_acc [m/s²] grows with T²), yaw <= budget_yaw_deg + budget_yaw_per_m x that
+  // distance.
   double budget_m = 0.3;
   double budget_per_m = 0.1;
+  double budget_blind_acc = 0.02;
   double budget_yaw_deg = 3.0;
   double budget_yaw_per_m = 0.5;
   bool Check(std::string* why) const;
@@ -264,6 +267,8 @@ struct EstimatorSummary {
   int frames = 0;               // frames given to AddFrame
   int keyframes = 0;            // keyframes created
   int observations_used = 0;    // observations of objects in the map (they become factors)
+  int observations_partial = 0;  // ...of them, objects partly in view (some corners not seen)
+  int partial_dropped = 0;  // partial observations of objects the window did not track (unused)
   int observations_rejected = 0;  // first views whose single-view initialisation failed
   int reanchors = 0;
   int objects_reinitialized =

@@ -101,16 +101,18 @@ CornerPrediction PredictFspCorners(const Mat3& K, const Rigid3& T_W_C, const Rig
 
 // General observation: blocks (camera body pose[7], anchor body pose[7], q_F_O[4], x[5]).
 // Ambient Jacobians (positions Euclidean; quaternions through LeftRotationJacobianWrtQuat), so they
-// compose with any manifold on those blocks.
+// compose with any manifold on those blocks. A corner not in `seen` (an object partly out of view)
+// has residual and Jacobian rows 0, and its cheirality is not checked.
 class FspFactor final : public ceres::SizedCostFunction<8, 7, 7, 4, 5> {
  public:
   FspFactor(const Corners& corners_px, const Mat3& K, const Rigid3& T_B_C,
-            const FspFactorOptions& options);
+            const FspFactorOptions& options, const CornerMask& seen = kAllCorners);
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
  private:
   Corners obs_;
+  CornerMask seen_;
   Mat3 K_;
   Rigid3 T_B_C_;
   FspFactorOptions options_;
@@ -118,15 +120,17 @@ class FspFactor final : public ceres::SizedCostFunction<8, 7, 7, 4, 5> {
 
 // Observation in the anchor keyframe itself (C = F): z_j = π(K a_j). Blocks (q_F_O[4], x[5]); the
 // pose block is omitted (Ceres forbids a block twice in one residual, and h does not depend on it).
-// The Jacobian column of log ω is identically zero.
+// The Jacobian column of log ω is identically zero. `seen` as in FspFactor.
 class FspAnchorFactor final : public ceres::SizedCostFunction<8, 4, 5> {
  public:
-  FspAnchorFactor(const Corners& corners_px, const Mat3& K, const FspFactorOptions& options);
+  FspAnchorFactor(const Corners& corners_px, const Mat3& K, const FspFactorOptions& options,
+                  const CornerMask& seen = kAllCorners);
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
  private:
   Corners obs_;
+  CornerMask seen_;
   Mat3 K_;
   FspFactorOptions options_;
 };

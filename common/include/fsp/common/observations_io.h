@@ -1,7 +1,8 @@
 // Per-frame corner observations as csv (README, "Commands", Files):
-//   observations_gt.csv: t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4,fully_visible   (rendered ground
-//   truth) observations.csv:    t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4                 (what a
-//   run's front end saw)
+//   observations_gt.csv: t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4,fully_visible,visible_corners
+//                        (rendered ground truth; visible_corners: bit j-1 set when corner j is in
+//                        the image and not hidden, 0..15; files without it are read too)
+//   observations.csv:    t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4 (what a run's front end saw)
 // Corners are undistorted pixels in s1..s4 order.
 #pragma once
 
@@ -17,13 +18,17 @@ struct CornerRow {
   int object_id = -1;
   Corners corners;
   bool fully_visible = true;  // true when the file has no flag column
-  int line = 0;               // line of the file it was read from (0: not read from a file)
+  // The corners in the image and not hidden: all when fully_visible; without the
+  // visible_corners column, none otherwise (unknown).
+  CornerMask visible = kAllCorners;
+  int line = 0;  // line of the file it was read from (0: not read from a file)
 };
 
-// Reads either layout (10 or 11 columns; a header line starting with '#' or "t_ns" is skipped).
+// Reads either layout (10, 11 or 12 columns; a header line starting with '#' or "t_ns" is skipped).
 // Rows must be in non-decreasing time order. Throws InputError naming file and line.
 std::vector<CornerRow> ReadCornerRows(const std::string& path);
-// Writes the layout with the fully_visible column when `with_flag`.
+// Writes the layout with the fully_visible and visible_corners columns when `with_flag` (a row not
+// fully visible whose `visible` has every corner gets 0: which ones is not known).
 void WriteCornerRows(const std::vector<CornerRow>& rows, const std::string& path, bool with_flag);
 
 }  // namespace fsp

@@ -48,6 +48,11 @@ struct StampedPose {
 // Four image corners of one rectangle in s1..s4 order (bottom-left, bottom-right, top-right,
 // top-left for an upright object seen from the front).
 using Corners = std::array<Vec2, 4>;
+// Which of the four corners (s1..s4) were seen: in the image and not hidden. An object partly out
+// of view is observed through the corners it shows.
+using CornerMask = std::array<bool, 4>;
+inline constexpr CornerMask kAllCorners = {true, true, true, true};
+int CountSeen(const CornerMask& seen);
 
 // Object classes the front end can name. kUnknown is a rectangle without a class guess.
 enum class ObjectClass { kUnknown, kDoor, kWindow, kCabinet, kPoster, kTag };
@@ -63,6 +68,11 @@ struct ObjectObservation {
   ObjectClass object_class = ObjectClass::kUnknown;
   Corners corners;     // UNDISTORTED pixels, s1..s4 order
   double score = 1.0;  // detector/tracker confidence in [0, 1]
+  // The corners seen; the others' entries in `corners` carry no information. The back end uses a
+  // partial observation only for an object its window already tracks (backend/README.md, "Objects
+  // partly in view").
+  CornerMask seen = kAllCorners;
+  bool Complete() const { return seen == kAllCorners; }
 };
 
 // What the back end and the IMU expect of the next frame, handed to the front end (the front end
