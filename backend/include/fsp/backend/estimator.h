@@ -99,7 +99,7 @@ enum class WindowBoundary {
 struct GlobalOptions {
   bool enabled = true;
   // A global solve every this many keyframes (and whenever a loop closes) [keyframes].
-  int every_keyframes = 10;
+  int every_keyframes = 5;
   // Solver iterations of a global solve during the run, and of the final one (Finish).
   int max_iterations = 10;
   int final_iterations = 50;
