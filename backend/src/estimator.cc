@@ -421,8 +421,12 @@ void Estimator::AddImu(const ImuSample& sample) {
   impl_->imu.push_back(sample);
 }
 
-bool Estimator::AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& observations) {
+bool Estimator::AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& given) {
   Impl& d = *impl_;
+  // An observation without a corner seen says nothing.
+  std::vector<ObjectObservation> observations;
+  std::copy_if(given.begin(), given.end(), std::back_inserter(observations),
+               [](const ObjectObservation& o) { return CountSeen(o.seen) > 0; });
   ++d.summary.frames;
   d.NoteFrame(t_ns, !observations.empty());
   if (!d.summary.initialized) {

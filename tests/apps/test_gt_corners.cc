@@ -201,8 +201,22 @@ TEST(GtCorners, ClearErrors) {
   e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
   EXPECT_NE(e.find("observations_gt.csv:2"), std::string::npos) << e;
 
+  // The visible_corners column: 0..15, and all four bits exactly when fully_visible.
+  WriteText(dir / "observations_gt.csv", "0,1,1,2,3,4,5,6,7,8,1,15\n0,2,1,2,3,4,5,6,7,8,0,16\n");
+  e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
+  EXPECT_NE(e.find("observations_gt.csv:2: column 12 (visible_corners) must be 0..15"),
+            std::string::npos)
+      << e;
+  WriteText(dir / "observations_gt.csv", "0,1,1,2,3,4,5,6,7,8,1,7\n");
+  e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(1.0)); });
+  EXPECT_NE(e.find("contradicts column 11 (fully_visible)"), std::string::npos) << e;
+
   e = ErrorOf([&] { GtCornersFrontend(dir.string(), Sigma(-1.0)); });
   EXPECT_NE(e.find("pixel_sigma"), std::string::npos) << e;
+  GtCornersOptions one = Sigma(1.0);
+  one.min_visible_corners = 1;
+  e = ErrorOf([&] { GtCornersFrontend(dir.string(), one); });
+  EXPECT_NE(e.find("min_visible_corners must be 2, 3 or 4"), std::string::npos) << e;
 }
 
 // A camera with lens distortion (the fixture's 32 x 24 px, EuRoC-like coefficients).

@@ -326,10 +326,11 @@ class Estimator {
 
   // IMU samples in time order (a sample older than the last one throws InputError).
   void AddImu(const ImuSample& sample);
-  // One frame's observations (corners undistorted, s1..s4). Frames in time order, after the IMU
-  // that covers them. Returns false while the estimator is not initialised (the frame is buffered
-  // until the static interval is complete) or after the initialisation refused
-  // (summary().init_failure).
+  // One frame's observations (corners undistorted, s1..s4; an object partly in view with the
+  // corners it shows, ObjectObservation::seen: backend/README.md, "Objects partly in view"; one
+  // without any is ignored). Frames in time order, after the IMU that covers them. Returns false
+  // while the estimator is not initialised (the frame is buffered until the static interval is
+  // complete) or after the initialisation refused (summary().init_failure).
   bool AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& observations);
   // Ends the sequence: final window solve, or the full batch solve.
   void Finish();
