@@ -189,7 +189,8 @@ void AddRunCommand(CLI::App& root) {
       ->check(CLI::IsMember({"rect", "apriltag", "gt-corners", "corners"}))
       ->default_str("rect");
   sub->add_option("--corners", args->request.corners,
-                  "--frontend corners: csv t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible] "
+                  "--frontend corners: csv "
+                  "t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible[,visible_corners]] "
                   "(observations_gt.csv's columns) of corners found in the raw images: distorted "
                   "pixels, s1..s4 order, t_ns the frame times of INPUT");
   sub->add_option("--objects", args->request.objects,

@@ -123,7 +123,8 @@ ExternalCornersFrontend::ExternalCornersFrontend(const std::string& corners,
   const std::vector<CornerRow> rows = ReadCornerRows(corners);  // columns, numbers, time order
   if (rows.empty()) {
     throw InputError(corners, 0,
-                     "no rows (expected t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible])");
+                     "no rows (expected "
+                     "t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4[,fully_visible[,visible_corners]])");
   }
   std::map<int, ObjectClass> classes;
   if (!objects.empty()) classes = ReadObjectClasses(objects);
