@@ -116,6 +116,7 @@ namespace {
 using Mat85R = Eigen::Matrix<double, 8, 5, Eigen::RowMajor>;
 using Mat84R = Eigen::Matrix<double, 8, 4, Eigen::RowMajor>;
 using Mat87R = Eigen::Matrix<double, 8, 7, Eigen::RowMajor>;
+using Mat35 = Eigen::Matrix<double, 3, 5>;
 
 // Corner j not seen: its residuals (2j, 2j + 1) and those rows of every row-major 8 x n Jacobian
 // block are 0.
@@ -128,7 +129,6 @@ void ZeroCornerRows(int j, const std::vector<int32_t>& block_sizes, double* resi
       std::fill_n(jacobians[b] + 2 * j * block_sizes[b], 2 * block_sizes[b], 0.0);
   }
 }
-using Mat35 = Eigen::Matrix<double, 3, 5>;
 
 FspLandmark LandmarkFromBlocks(const double* q_F_O, const double* x) {
   FspLandmark l;
