@@ -86,10 +86,7 @@ GtCornersFrontend::GtCornersFrontend(const std::string& input, const GtCornersOp
   std::normal_distribution<double> normal(0.0, 1.0);
   stats_.rows = static_cast<int>(rows.size());
   for (const CornerRow& row : rows) {
-    if (!row.fully_visible && CountSeen(row.visible) < options.min_visible_corners) {
-      ++stats_.rows_not_visible;
-      continue;
-    }
+    if (!Keep(row, options.min_visible_corners)) continue;
     const auto cls = classes.find(row.object_id);
     if (cls == classes.end()) {
       throw InputError(observations_path_, 0,
@@ -101,9 +98,8 @@ GtCornersFrontend::GtCornersFrontend(const std::string& input, const GtCornersOp
     obs.object_class = cls->second;
     obs.corners = row.corners;
     obs.seen = row.visible;
-    if (!row.fully_visible) ++stats_.rows_partial;
     if (options.pixel_sigma > 0.0) {
-      std::mt19937& r = row.fully_visible ? rng : rng_partial;
+      std::mt19937& r = row.FullyVisible() ? rng : rng_partial;
       for (Vec2& c : obs.corners) {
         c.x() += options.pixel_sigma * normal(r);
         c.y() += options.pixel_sigma * normal(r);
@@ -144,14 +140,10 @@ ExternalCornersFrontend::ExternalCornersFrontend(const std::string& corners,
       }
       fail(what);
     }
-    if (!row.fully_visible && CountSeen(row.visible) < min_visible_corners) {
-      ++stats_.rows_not_visible;
-      continue;
-    }
+    if (!Keep(row, min_visible_corners)) continue;
     ObjectObservation obs;
     obs.t_ns = t_ns;
     obs.seen = row.visible;
-    if (!row.fully_visible) ++stats_.rows_partial;
     obs.object_id = row.object_id;
     if (!objects.empty()) {
       const auto cls = classes.find(row.object_id);
@@ -173,6 +165,13 @@ ExternalCornersFrontend::ExternalCornersFrontend(const std::string& corners,
   }
 }
 
+bool CornerFileFrontend::Keep(const CornerRow& row, int min_visible_corners) {
+  if (row.FullyVisible()) return true;
+  const bool keep = CountSeen(row.visible) >= min_visible_corners;
+  ++(keep ? stats_.rows_partial : stats_.rows_not_visible);
+  return keep;
+}
+
 std::vector<ObjectObservation> CornerFileFrontend::Process(int64_t t_ns) {
   const auto it = by_time_.find(t_ns);
   if (it == by_time_.end()) return {};
@@ -186,7 +185,6 @@ CornerRow ToCornerRow(const ObjectObservation& observation) {
   row.t_ns = observation.t_ns;
   row.object_id = observation.object_id;
   row.corners = observation.corners;
-  row.fully_visible = true;
   return row;
 }
 

@@ -51,6 +51,9 @@ class CornerFileFrontend {
 
  protected:
   CornerFileFrontend() = default;
+  // Whether a row is handed out: fully visible, or showing at least `min_visible_corners` corners
+  // (counted in stats_ either way).
+  bool Keep(const CornerRow& row, int min_visible_corners);
   std::string observations_path_;
   std::map<int64_t, std::vector<ObjectObservation>> by_time_;
   CornerFileStats stats_;

@@ -29,15 +29,12 @@ std::vector<CornerRow> ReadCornerRows(const std::string& path) {
     if (f.size() >= 11) {
       const int64_t flag = reader.Int64(f, 10, "fully_visible");
       if (flag != 0 && flag != 1) reader.Fail("column 11 (fully_visible) must be 0 or 1");
-      row.fully_visible = flag == 1;
-      if (!row.fully_visible) row.visible = {false, false, false, false};
-    }
-    if (f.size() == 12) {
-      const int64_t bits = reader.Int64(f, 11, "visible_corners");
+      // Without visible_corners, which corners a row not fully visible shows is not known: none.
+      const int64_t bits = f.size() == 12 ? reader.Int64(f, 11, "visible_corners") : 15 * flag;
       if (bits < 0 || bits > 15) reader.Fail("column 12 (visible_corners) must be 0..15");
-      for (int j = 0; j < 4; ++j) row.visible[j] = ((bits >> j) & 1) != 0;
-      if (row.fully_visible != (bits == 15))
+      if ((flag == 1) != (bits == 15))
         reader.Fail("column 12 (visible_corners) contradicts column 11 (fully_visible)");
+      for (int j = 0; j < 4; ++j) row.visible[j] = ((bits >> j) & 1) != 0;
     }
     if (!rows.empty() && row.t_ns < rows.back().t_ns) {
       reader.Fail("timestamp " + std::to_string(row.t_ns) + " goes backwards (previous row has " +
@@ -62,8 +59,7 @@ void WriteCornerRows(const std::vector<CornerRow>& rows, const std::string& path
       if (with_flag) {
         int bits = 0;
         for (int j = 0; j < 4; ++j) bits |= r.visible[j] ? 1 << j : 0;
-        if (!r.fully_visible && bits == 15) bits = 0;  // which corners is not known
-        out << ',' << (r.fully_visible ? 1 : 0) << ',' << bits;
+        out << ',' << (r.FullyVisible() ? 1 : 0) << ',' << bits;
       }
       out << '\n';
     }

@@ -181,7 +181,7 @@ std::map<int, GtTrack> GtTracks(const std::vector<CornerRow>& gt, const Frames& 
   for (size_t k = 0; k < frames.times.size(); ++k) {
     for (size_t gi : frames.gt_rows[k]) {
       GtTrack& t = tracks[gt[gi].object_id];
-      if (gt[gi].fully_visible &&
+      if (gt[gi].FullyVisible() &&
           (t.fully_visible_frames.empty() || t.fully_visible_frames.back() != k)) {
         t.fully_visible_frames.push_back(k);
       }
@@ -270,7 +270,7 @@ FrontendMetrics EvaluateFrontend(const std::vector<CornerRow>& gt,
   FrontendMetrics m;
   m.gt_rows = gt.size();
   m.est_rows = est.size();
-  for (const CornerRow& g : gt) m.gt_fully_visible += g.fully_visible ? 1 : 0;
+  for (const CornerRow& g : gt) m.gt_fully_visible += g.FullyVisible() ? 1 : 0;
 
   const Frames frames = BuildFrames(gt, est, frame_times, options.time_tolerance_ns);
   m.frames = frames.times.size();
@@ -285,7 +285,7 @@ FrontendMetrics EvaluateFrontend(const std::vector<CornerRow>& gt,
   std::vector<double> corner_errors;
   for (const Match& mt : matches) {
     ++m.matched;
-    if (gt[mt.gt].fully_visible) ++m.matched_fully_visible;
+    if (gt[mt.gt].FullyVisible()) ++m.matched_fully_visible;
     if (mt.shift != 0) ++m.corner_order_errors;
     for (double e : CornerErrors(est[mt.est], gt[mt.gt])) corner_errors.push_back(e);
   }

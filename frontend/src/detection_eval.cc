@@ -53,7 +53,7 @@ MatchStats MatchFrame(const std::vector<Detection>& dets, const std::vector<GtOb
     s.true_positives += tp;
   }
   for (const GtObservation& g : gt) {
-    if (!g.fully_visible || ShortestSide(g.corners) < o.min_shortest_side_px) continue;
+    if (!g.FullyVisible() || ShortestSide(g.corners) < o.min_shortest_side_px) continue;
     ++s.gt_eligible;
     double best = std::numeric_limits<double>::infinity();
     int best_shift = 0;

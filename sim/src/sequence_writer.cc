@@ -233,7 +233,6 @@ std::vector<CornerRow> ProjectObjects(const Scene& scene, const Renderer* render
       row.visible[j] = cam.InImage(cam.Project(p_C[j])) &&
                        (renderer == nullptr || renderer->PointVisible(T_W_C, o.corners_W[j], o.id));
     }
-    row.fully_visible = row.visible == kAllCorners;
     rows.push_back(row);
   }
   return rows;
@@ -465,7 +464,7 @@ SequenceSummary WriteSequence(const Scene& scene, const std::string& out_dir,
     }
     summary.observation_rows = static_cast<int>(rows.size());
     summary.fully_visible_rows = static_cast<int>(std::count_if(
-        rows.begin(), rows.end(), [](const CornerRow& r) { return r.fully_visible; }));
+        rows.begin(), rows.end(), [](const CornerRow& r) { return r.FullyVisible(); }));
     WriteCornerRows(rows, (out / "observations_gt.csv").string(), true);
   }
 

@@ -40,7 +40,6 @@ std::vector<int64_t> MakeSequence(const fs::path& dir) {
       r.object_id = id;
       r.corners = TrueCorners(id, k);
       if (id == 2 && k == 2) {  // one corner in view: too few to be handed out
-        r.fully_visible = false;
         r.visible = {true, false, false, false};
       }
       rows.push_back(r);
@@ -102,7 +101,6 @@ TEST(GtCorners, PartlyVisibleRowsGiveTheCornersTheyShow) {
   rows.pop_back();
   WriteCornerRows(rows, (dir / "observations_gt.csv").string(), /*with_flag=*/true);
   GtCornersFrontend without(dir.string(), Sigma(1.0));
-  partial.fully_visible = false;
   partial.visible = {true, false, false, true};
   rows.push_back(partial);
   WriteCornerRows(rows, (dir / "observations_gt.csv").string(), /*with_flag=*/true);
@@ -238,7 +236,6 @@ void WriteDistortedCorners(const fs::path& path, const std::vector<int64_t>& t,
       const Corners truth = TrueCorners(id, k);
       for (int j = 0; j < 4; ++j) r.corners[j] = camera.DistortPixel(truth[j]);
       if (id == 2 && k == 2) {  // one corner in view: too few to be handed out
-        r.fully_visible = false;
         r.visible = {true, false, false, false};
       }
       rows.push_back(r);

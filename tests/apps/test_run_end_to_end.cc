@@ -358,7 +358,7 @@ TEST(RunEndToEnd, CornersFrontEndUndoesTheLensDistortion) {
   for (CornerRow& r : rows) {
     for (Vec2& c : r.corners) {
       const Vec2 d = calib.camera.DistortPixel(c);
-      if (r.fully_visible) max_shift = std::max(max_shift, (d - c).norm());
+      if (r.FullyVisible()) max_shift = std::max(max_shift, (d - c).norm());
       c = d;
     }
   }

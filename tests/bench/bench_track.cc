@@ -244,7 +244,7 @@ ClipScore RunClip(Candidate* cand, const Source& source, const std::vector<Corne
           if (rep != out.end()) ++s.out_of_view;
           continue;
         }
-        if (!truth->second.fully_visible) continue;
+        if (!truth->second.FullyVisible()) continue;
         ++s.scored;
         if (rep == out.end()) continue;
         double sum = 0.0, worst = 0.0;
@@ -260,7 +260,7 @@ ClipScore RunClip(Candidate* cand, const Source& source, const std::vector<Corne
     }
     for (int id : ids) {
       const auto truth = now.find(id);
-      if (started.count(id) || truth == now.end() || !truth->second.fully_visible) continue;
+      if (started.count(id) || truth == now.end() || !truth->second.FullyVisible()) continue;
       cand->Start(id, frame.image, truth->second.corners);
       started.insert(id);
       cs.objects[id];  // scored from the next frame on

@@ -18,7 +18,7 @@ CornerRow Square(int64_t t_ns, int id, double x, double y, bool fully_visible = 
   r.t_ns = t_ns;
   r.object_id = id;
   r.corners = {Vec2(x, y), Vec2(x + 10, y), Vec2(x + 10, y - 10), Vec2(x, y - 10)};
-  r.fully_visible = fully_visible;
+  if (!fully_visible) r.visible = {false, false, false, false};
   return r;
 }
 

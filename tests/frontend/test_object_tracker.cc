@@ -565,11 +565,11 @@ TEST(ObjectTracker, RenderedRoom) {
         out_of_view_reports += o.tracked;
         continue;
       }
-      if (it->second.fully_visible) s.Add(&o, it->second.corners);
+      if (it->second.FullyVisible()) s.Add(&o, it->second.corners);
     }
     const std::vector<int> active = tracker.ActiveIds(), dormant = tracker.DormantIds();
     for (const auto& [id, row] : g) {
-      if (!row.fully_visible || std::count(active.begin(), active.end(), id)) continue;
+      if (!row.FullyVisible() || std::count(active.begin(), active.end(), id)) continue;
       double shortest = 1e9;
       for (int i = 0; i < 4; ++i)
         shortest = std::min(shortest, (row.corners[(i + 1) % 4] - row.corners[i]).norm());

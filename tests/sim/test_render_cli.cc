@@ -155,7 +155,7 @@ TEST(RenderCli, WritesAReadableSequenceWithConsistentGroundTruth) {
   ASSERT_FALSE(rows.empty());
   int fully = 0;
   for (const CornerRow& row : rows) {
-    fully += row.fully_visible;
+    fully += row.FullyVisible();
     const SceneObject* obj = nullptr;
     for (const SceneObject& o : scene.objects) obj = o.id == row.object_id ? &o : obj;
     ASSERT_NE(obj, nullptr);

@@ -17,18 +17,17 @@ struct CornerRow {
   int64_t t_ns = 0;
   int object_id = -1;
   Corners corners;
-  bool fully_visible = true;  // true when the file has no flag column
-  // The corners in the image and not hidden: all when fully_visible; without the
-  // visible_corners column, none otherwise (unknown).
+  // The corners in the image and not hidden (all when the file has no flag column; a row with
+  // fully_visible 0 but no visible_corners column: none, which ones is not known).
   CornerMask visible = kAllCorners;
+  bool FullyVisible() const { return visible == kAllCorners; }
   int line = 0;  // line of the file it was read from (0: not read from a file)
 };
 
 // Reads either layout (10, 11 or 12 columns; a header line starting with '#' or "t_ns" is skipped).
 // Rows must be in non-decreasing time order. Throws InputError naming file and line.
 std::vector<CornerRow> ReadCornerRows(const std::string& path);
-// Writes the layout with the fully_visible and visible_corners columns when `with_flag` (a row not
-// fully visible whose `visible` has every corner gets 0: which ones is not known).
+// Writes the layout with the fully_visible and visible_corners columns when `with_flag`.
 void WriteCornerRows(const std::vector<CornerRow>& rows, const std::string& path, bool with_flag);
 
 }  // namespace fsp
