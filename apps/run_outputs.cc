@@ -142,6 +142,7 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                     {"observations_used", s.observations_used},
                     {"observations_partial", s.observations_partial},
                     {"partial_dropped", s.partial_dropped},
+                    {"starts_rejected", s.starts_rejected},
                     {"observations_rejected", s.observations_rejected},
                     {"reanchors", s.reanchors},
                     {"marginalizations", s.marginalizations},

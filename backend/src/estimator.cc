@@ -92,6 +92,8 @@ bool EstimatorOptions::Check(std::string* why) const {
     os << "need 0 < min_depth_m < max_depth_m";
   else if (!(reinit_gate_px >= 0.0))
     os << "reinit_gate_px must be >= 0";
+  else if (!(start_agree_px >= 0.0))
+    os << "start_agree_px must be >= 0";
   else if (!faults.Check(&sub))
     os << "faults: " << sub;
   else if (!global.Check(&sub))
@@ -178,8 +180,29 @@ void Estimator::Impl::InitializeNewObjects(Keyframe* kf) {
       ++summary.objects_reinitialized;
     }
     if (found != objects.end()) continue;
-    const SingleViewInitSummary s = InitializeFspSingleView(
-        o.corners, K, o.object_class, options.init, UpDirection(o.object_class, T_W_C));
+    // The object starts at its first view once a second one agrees with it.
+    Keyframe* anchor = kf;
+    Corners first_corners = o.corners;
+    if (options.start_agree_px > 0.0) {
+      const StartView* first = WaitingStart(o.object_id);
+      if (!first) {
+        start_views[o.object_id] = {kf, o};
+        continue;
+      }
+      // The second view a keyframe interval later: consecutive frames share a front end's error.
+      if (kf->state.t_ns - first->kf->state.t_ns < KeyframeInterval() * 1e9 - 1e6) continue;
+      if (!ViewsAgree(*first, *kf, o)) {
+        ++summary.starts_rejected;
+        start_views[o.object_id] = {kf, o};
+        continue;
+      }
+      anchor = first->kf;
+      first_corners = first->observation.corners;
+      start_views.erase(o.object_id);
+    }
+    const SingleViewInitSummary s =
+        InitializeFspSingleView(first_corners, K, o.object_class, options.init,
+                                UpDirection(o.object_class, CameraPose(*anchor)));
     if (!s.success()) {
       ++summary.observations_rejected;
       continue;
@@ -187,10 +210,10 @@ void Estimator::Impl::InitializeNewObjects(Keyframe* kf) {
     auto obj = std::make_unique<Object>();
     obj->id = o.object_id;
     obj->object_class = o.object_class;
-    obj->anchor = kf;
+    obj->anchor = anchor;
     // Views of it partly in view from earlier window keyframes count from now on.
-    obj->first_seen = kf->index;
-    for (size_t i = window_begin; i < keyframes.size() && keyframes[i].get() != kf; ++i) {
+    obj->first_seen = anchor->index;
+    for (size_t i = window_begin; i < keyframes.size() && keyframes[i].get() != anchor; ++i) {
       const std::vector<ObjectObservation>& seen = keyframes[i]->observations;
       if (std::any_of(seen.begin(), seen.end(), [&](const ObjectObservation& p) {
             return p.object_id == o.object_id && !p.Complete();
@@ -209,6 +232,45 @@ void Estimator::Impl::InitializeNewObjects(Keyframe* kf) {
   });
   summary.partial_dropped += static_cast<int>(obs.end() - end);
   obs.erase(end, obs.end());
+}
+
+bool Estimator::Impl::ViewsAgree(const StartView& first, const Keyframe& kf,
+                                 const ObjectObservation& o) const {
+  const ObjectObservation& a = first.observation;
+  const SingleViewInitSummary s =
+      InitializeFspSingleView(a.corners, K, o.object_class, options.init,
+                              UpDirection(o.object_class, CameraPose(*first.kf)));
+  if (!s.success()) return false;
+  const std::array<Vec3, 4> p_A = s.landmark.CornersF();
+  const Rigid3 T_B_A = CameraPose(kf).Inverse() * CameraPose(*first.kf);
+  // RMS corner distance with the first view's rectangle scaled by exp(log_scale) about camera A.
+  const auto rms = [&](double log_scale) {
+    const double scale = std::exp(log_scale);
+    double sum2 = 0.0;
+    for (int j = 0; j < 4; ++j) {
+      const Vec3 p = K * (T_B_A * (scale * p_A[j]));
+      if (!(p.z() > 1e-6)) return std::numeric_limits<double>::infinity();
+      sum2 += (p.head<2>() / p.z() - o.corners[j]).squaredNorm();
+    }
+    return std::sqrt(sum2 / 4.0);
+  };
+  // Scales 1/8..8 of the single view's (a class prior's) size: a grid, then golden sections
+  // between the best grid point's neighbours.
+  constexpr int kSteps = 48;
+  const double lo = -std::log(8.0), step = 2.0 * std::log(8.0) / kSteps;
+  int best = 0;
+  for (int i = 1; i <= kSteps; ++i)
+    if (rms(lo + i * step) < rms(lo + best * step)) best = i;
+  double x0 = lo + (best - 1) * step, x1 = lo + (best + 1) * step;
+  const double r = 0.5 * (std::sqrt(5.0) - 1.0);
+  for (int it = 0; it < 30; ++it) {
+    const double c = x1 - r * (x1 - x0), d = x0 + r * (x1 - x0);
+    if (rms(c) < rms(d))
+      x1 = d;
+    else
+      x0 = c;
+  }
+  return std::min(rms(lo + best * step), rms(0.5 * (x0 + x1))) <= options.start_agree_px;
 }
 
 bool Estimator::Impl::ClosesDirectly(const Object& obj, const Rigid3& T_W_C,

@@ -69,6 +69,12 @@ struct Keyframe {
   bool still = false;
 };
 
+// The first whole view of an object not in the map yet (EstimatorOptions::start_agree_px).
+struct StartView {
+  Keyframe* kf;
+  ObjectObservation observation;
+};
+
 struct Object {
   int id = -1;
   ObjectClass object_class = ObjectClass::kUnknown;
@@ -126,6 +132,9 @@ struct Estimator::Impl {
   // Window mode: the best-observed earlier instance of each re-initialised object (the map reports
   // whichever instance of an id has more observations).
   std::map<int, std::unique_ptr<Object>> retired;
+  // The first whole view of each object not in the map yet, waiting for a second one to agree
+  // (options.start_agree_px).
+  std::map<int, StartView> start_views;
   std::vector<StateSample> output;  // per frame, the state reported for it
   std::vector<StateSample> causal;  // per frame, its state right after its own update
   // Frames that were not kept as keyframes: their pose and velocity relative to the keyframe before
@@ -230,19 +239,31 @@ struct Estimator::Impl {
   // frame that sees an object not in the map or (window mode) back after leaving the window (it may
   // become the object's anchor, and only keyframes can be anchors).
   bool IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const {
-    const double interval = options.mode == EstimatorMode::kBatch
-                                ? options.batch_keyframe_interval_s
-                                : options.keyframe_interval_s;
+    const double interval = KeyframeInterval();
     if (interval <= 0.0) return true;
     const Keyframe& last = *keyframes.back();  // a keyframe: a non-keyframe newest was just dropped
     if (static_cast<double>(t_ns - last.state.t_ns) >= interval * 1e9 - 1e6) return true;
     const int first_in_window = keyframes[window_begin]->index;
     for (const ObjectObservation& o : obs) {
       auto it = objects.find(o.object_id);
-      if (o.Complete() && (it == objects.end() || it->second->last_seen < first_in_window))
+      if (o.Complete() && it == objects.end() && !WaitingStart(o.object_id)) return true;
+      if (o.Complete() && it != objects.end() && it->second->last_seen < first_in_window)
         return true;
     }
     return false;
+  }
+  // The first whole view of an object not in the map that waits for a second (in the window),
+  // nullptr if none.
+  const StartView* WaitingStart(int object_id) const {
+    const auto it = start_views.find(object_id);
+    if (it == start_views.end() || it->second.kf->index < keyframes[window_begin]->index)
+      return nullptr;
+    return &it->second;
+  }
+  // Keyframe spacing [s] (window or batch).
+  double KeyframeInterval() const {
+    return options.mode == EstimatorMode::kBatch ? options.batch_keyframe_interval_s
+                                                 : options.keyframe_interval_s;
   }
 
   // Whether the vehicle stood still between keyframes `prev` and `kf` (ZeroVelocityOptions): no
@@ -271,6 +292,8 @@ struct Estimator::Impl {
       --summary.observations_used;
       if (!o.Complete()) --summary.observations_partial;
     }
+    for (auto it = start_views.begin(); it != start_views.end();)
+      it = it->second.kf == &kf ? start_views.erase(it) : std::next(it);
     keyframes.pop_back();
   }
 
@@ -295,6 +318,8 @@ struct Estimator::Impl {
   // closing such large loops needs a pose graph that can move the old poses, not a window that
   // cannot.
   void InitializeNewObjects(Keyframe* kf);
+  // Whether whole view `o` from `kf` agrees with an earlier one (options.start_agree_px).
+  bool ViewsAgree(const StartView& first, const Keyframe& kf, const ObjectObservation& o) const;
 
   // "Up" (−gravity) in the camera frame for classes known to be vertical (single-view
   // initialisation), nullopt for the others.

@@ -49,6 +49,8 @@ bool FrontEndOptions::Check(std::string* why) const {
   if (!(border_margin_px >= 0.0)) return fail("border_margin_px must be >= 0");
   if (tag_scan_every < 0) return fail("tag_scan_every must be >= 0");
   if (first_rect_id < 0) return fail("first_rect_id must be >= 0");
+  if (min_visible_corners < 2 || min_visible_corners > 4)
+    return fail("min_visible_corners must be 2, 3 or 4");
   std::string sub;
   if (!rect.Check(&sub)) return fail("rect: " + sub);
   if (!apriltag.Check(&sub)) return fail("apriltag: " + sub);
@@ -170,7 +172,7 @@ bool FrontEnd::Impl::TrackAll(FrameWork* w) {
     if (t.tracked && !expired) {
       info.last = t.corners_undistorted;
       w->tracked[t.id] = t.corners_undistorted;
-      if (!t.in_view) w->out_of_view.insert(t.id);  // tracked on, not observed
+      if (!t.in_view) w->out_of_view[t.id] = t.seen;  // partly in view
       w->score[t.id] = t.score;
       continue;
     }
@@ -243,8 +245,13 @@ void FrontEnd::Impl::Emit(int64_t t_ns, FrameWork* w) {
       const ObjectInfo& info = objects[id];
       const bool by_track = source == &w->tracked;
       if (!info.confirmed) continue;
-      if (by_track && (w->from_detection.count(id) || w->out_of_view.count(id))) continue;
+      if (by_track && w->from_detection.count(id)) continue;
       ObjectObservation obs;
+      const auto partial = by_track ? w->out_of_view.find(id) : w->out_of_view.end();
+      if (partial != w->out_of_view.end()) {
+        if (CountSeen(partial->second) < w->o.min_visible_corners) continue;
+        obs.seen = partial->second;
+      }
       obs.t_ns = t_ns;
       obs.object_id = id;
       obs.object_class = info.Class();

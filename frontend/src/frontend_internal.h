@@ -92,7 +92,8 @@ struct FrontEnd::Impl {
     std::map<int, Corners> tracked;         // this frame's corners of the live objects
     std::map<int, Corners> from_detection;  // corners of objects (re)started in this frame
     std::map<int, double> score;            // their confidence (tracker or detector)
-    std::set<int> out_of_view;              // tracked, but a corner is outside the image
+    std::map<int, CornerMask>
+        out_of_view;  // tracked, but a corner is outside the image: those in it
   };
 
   // frontend.cc

@@ -273,12 +273,12 @@ TrackedObject ObjectTracker::Impl::TrackOne(Object* ob, const cv::Mat& gray,
   }
   t.tracked = true;
   t.corners_undistorted = final_corners;
-  t.in_view = true;
   for (int i = 0; i < 4; ++i) {
     const Vec2 d = ToDistorted(final_corners[i]);
     t.corners_px[i] = d;
-    t.in_view = t.in_view && camera.InImage(d);
+    t.seen[i] = camera.InImage(d);
   }
+  t.in_view = t.seen == kAllCorners;
   const double a =
       std::clamp((t.appearance - o.min_appearance) / (1.0 - o.min_appearance + 1e-9), 0.0, 1.0);
   t.score = 0.5 * a + 0.25 * (t.edge_refined ? 1.0 : 0.0) +

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -78,9 +79,9 @@ FaultRun RunFaulty(const fs::path& sequence, const fs::path& out, const std::str
   const eval::Metrics m =
       eval::Evaluate(eval::ResolvePaths(sequence.string(), out.string()), eval::EvalOptions());
   if (m.trajectory) r.ate = m.trajectory->ate.rmse;
-  std::printf("[%s] ATE %.3f m, %zu poses, %zu objects in the map, faults %s\n",
+  std::printf("[%s] ATE %.3f m, %zu poses, %zu objects in the map, starts rejected %d, faults %s\n",
               out.filename().c_str(), r.ate, r.poses, r.map["objects"].size(),
-              r.faults.dump().c_str());
+              r.run["estimator"]["starts_rejected"].get<int>(), r.faults.dump().c_str());
   return r;
 }
 
@@ -102,6 +103,7 @@ TEST(Faults, NoFaultNoCounter) {
   for (const char* k : {"imu_gaps", "frame_gaps", "blind_stretches", "divergences", "resets"})
     EXPECT_EQ(r.faults[k].get<int>(), 0) << k;
   EXPECT_TRUE(r.faults["warnings"].empty());
+  EXPECT_EQ(r.run["estimator"]["starts_rejected"].get<int>(), 0) << "1 px noise is no fault";
   EXPECT_LT(r.ate, 0.045);  // measured 2.8 cm (11.9 cm before the global step)
 }
 
@@ -205,6 +207,48 @@ TEST(Faults, CorruptedImuBurstIsDetectedAndTheEstimatorRestarts) {
   EXPECT_LE(r.faults["divergences"].get<int>(), 3);
   EXPECT_EQ(r.faults["resets"].get<int>(), r.faults["divergences"].get<int>());
   EXPECT_NE(r.command.err.find("divergence (speed"), std::string::npos) << r.command.err;
+}
+
+// A front end that closes an object entering the view with an inner edge (a window's pane) reports
+// wrong corners for its first frames. Here the first three whole views of every object have s2 and
+// s3 pulled a fifth of the way towards s1 and s4. The second whole view a keyframe later disagrees
+// with each such first view (starts_rejected), and the objects start from the good views; with
+// start_agree_px 0 every object starts from its wrong first view.
+TEST(Faults, WrongFirstViewsDoNotStartObjects) {
+  const fs::path dir = test::ScratchDir();
+  CopyWithout(dir / "seq", "observations_gt.csv", [](int64_t) { return false; });
+  std::ifstream in(Sequence() / "observations_gt.csv");
+  std::ofstream out(dir / "seq/observations_gt.csv");
+  std::map<int, int> corrupted;  // whole views corrupted per object id
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    if (line[0] != '#' && f.size() >= 11 && f[10] == "1" && corrupted[std::stoi(f[1])]++ < 3) {
+      // u_j, v_j are columns 2j, 2j + 1 (j = 1..4): s2 towards s1, s3 towards s4.
+      for (const auto& [moved, towards] : {std::pair{2, 1}, std::pair{3, 4}})
+        for (int xy = 0; xy < 2; ++xy) {
+          const double a = std::stod(f[2 * moved + xy]), b = std::stod(f[2 * towards + xy]);
+          f[2 * moved + xy] = std::to_string(a + 0.2 * (b - a));
+        }
+      line = f[0];
+      for (size_t k = 1; k < f.size(); ++k) line += "," + f[k];
+    }
+    out << line << "\n";
+  }
+  out.close();
+  const FaultRun r = RunFaulty(dir / "seq", dir / "wrong_first");
+  ExpectCompleteRun(r, kFrames);
+  const int objects = static_cast<int>(corrupted.size());
+  EXPECT_GE(r.run["estimator"]["starts_rejected"].get<int>(), objects - 1);
+  EXPECT_LE(r.run["estimator"]["starts_rejected"].get<int>(), objects + 1);
+  EXPECT_LT(r.ate, 0.045);  // as the clean run's bound
+
+  const fs::path cfg = dir / "off.yaml";
+  std::ofstream(cfg) << "estimator:\n  start_agree_px: 0\n";
+  const FaultRun off = RunFaulty(dir / "seq", dir / "off", "--config " + cfg.string());
+  EXPECT_EQ(off.run["estimator"]["starts_rejected"].get<int>(), 0);
 }
 
 }  // namespace

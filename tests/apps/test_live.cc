@@ -189,7 +189,8 @@ LibraryRun RunLibrary(bool threads, int lag, const fs::path& dir) {
     pipeline::ThreadedSystem slam(source->calibration(), options);
     const auto take = [&] {
       for (const pipeline::FrameResult& f : slam.TakeResults())
-        for (const ObjectObservation& o : f.output.observations) rows.push_back(ToCornerRow(o));
+        for (const ObjectObservation& o : f.output.observations)
+          if (o.Complete()) rows.push_back(ToCornerRow(o));  // observations.csv: whole views
     };
     while (std::optional<Measurement> m = source->Next()) {
       if (const ImuSample* s = std::get_if<ImuSample>(&*m)) {
@@ -210,7 +211,7 @@ LibraryRun RunLibrary(bool threads, int lag, const fs::path& dir) {
         slam.AddImu(*s);
       } else {
         for (const ObjectObservation& o : slam.AddFrame(std::get<Frame>(*m)).observations)
-          rows.push_back(ToCornerRow(o));
+          if (o.Complete()) rows.push_back(ToCornerRow(o));
         ++r.frames;
       }
     }

@@ -335,7 +335,7 @@ TEST(ObjectTracker, LostWhenLeavingTheViewThenReidentifiedAndResumed) {
   cv::Mat img = Render(bg, {{ta, a_at(0)}, {tb, cb}}, 1);
   ASSERT_TRUE(tracker.Start(1, img, a_at(0)));
   ASSERT_TRUE(tracker.Start(2, img, cb));
-  int lost_at = -1, reported_outside = 0;
+  int lost_at = -1, reported_outside = 0, partial = 0;
   for (int k = 1; k < 100; ++k) {
     img = Render(bg, {{ta, a_at(k)}, {tb, cb}}, 1 + k);
     const auto r = tracker.Track(img);
@@ -344,6 +344,19 @@ TEST(ObjectTracker, LostWhenLeavingTheViewThenReidentifiedAndResumed) {
     EXPECT_LT((b->corners_undistorted[0] - cb[0]).norm(), 1.0);
     const TrackedObject* a = Find(r, 1);
     if (a && a->tracked && Outside(a_at(k))) ++reported_outside;
+    if (a && a->tracked && !FullyVisible(a_at(k))) {
+      // Partly out of view: the corners inside the image are named and where they are.
+      ++partial;
+      const Corners truth = a_at(k);
+      for (int j = 0; j < 4; ++j) {
+        const Vec2& p = truth[j];
+        EXPECT_EQ(a->seen[j], p.x() >= 0 && p.y() >= 0 && p.x() <= kW - 1 && p.y() <= kH - 1)
+            << "frame " << k << " corner " << j + 1;
+        if (a->seen[j]) {
+          EXPECT_LT((a->corners_undistorted[j] - p).norm(), 1.0) << "frame " << k;
+        }
+      }
+    }
     if (a && !a->tracked && lost_at < 0) lost_at = k;
     if (k > 60 && FullyVisible(a_at(k)) && lost_at > 0 && !a) {
       // Back in view: re-identify against both models, then resume.
@@ -380,6 +393,8 @@ TEST(ObjectTracker, LostWhenLeavingTheViewThenReidentifiedAndResumed) {
   }
   EXPECT_GT(lost_at, 0);
   EXPECT_EQ(reported_outside, 0);
+  std::printf("[tracker] leaving the view: tracked partly out of view in %d frames\n", partial);
+  EXPECT_GE(partial, 2);
   EXPECT_EQ(tracker.ActiveIds(), std::vector<int>({1, 2}));
 }
 

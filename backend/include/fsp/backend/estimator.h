@@ -239,6 +239,14 @@ struct EstimatorOptions {
   // 1/2/3): 0 -> ATE 0.20/0.18/0.18 m; 20 -> 0.41/0.35/0.24 m; no gate (large) -> diverges. The map
   // reports the better-observed instance of a re-initialised object.
   double reinit_gate_px = 0.0;
+  // An object enters the map from two whole views that agree: the first view's single-view
+  // rectangle, moved into the second view's camera at its best scale (one view does not give it),
+  // lies within this of the second view's corners (RMS) [px]. A view that disagrees is replaced by
+  // the newer one (counted in starts_rejected). A front end that closes an object entering the view
+  // with an inner edge (a window's pane) reports wrong corners for a frame or two; started from
+  // such a view, the default room's window from pixels was 10-38 cm off for 4 s. 0: an object
+  // starts from its first whole view.
+  double start_agree_px = 4.0;
   // Objects (instances) seen by fewer keyframes than this are not reported in the map.
   int min_observations = 3;
   FaultOptions faults;
@@ -270,6 +278,7 @@ struct EstimatorSummary {
   int observations_partial = 0;  // ...of them, objects partly in view (some corners not seen)
   int partial_dropped = 0;  // partial observations of objects the window did not track (unused)
   int observations_rejected = 0;  // first views whose single-view initialisation failed
+  int starts_rejected = 0;        // first views of objects that the next whole view disagreed with
   int reanchors = 0;
   int objects_reinitialized =
       0;  // window: objects seen again after leaving the window, started afresh

@@ -145,6 +145,10 @@ struct FrontEndOptions {
   double tag_crop_margin_frac = 0.3;
   // Ids of plain rectangles start here (AprilTags keep their ids, tag36h11 has 587: 0..586).
   int first_rect_id = 1000;
+  // A tracked object partly out of the image is reported through the corners inside it
+  // (ObjectObservation::seen) when they are at least this many (2..4; 4: whole objects only). The
+  // tracker follows an object until less than tracker.min_visible of it is in the image.
+  int min_visible_corners = 2;
   RectDetectorOptions rect;
   AprilTagDetectorOptions apriltag;
   ObjectTrackerOptions tracker;

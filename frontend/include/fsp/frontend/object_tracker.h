@@ -116,6 +116,7 @@ struct TrackedObject {
   Corners corners_px;           // s1..s4, distorted image px (valid when tracked)
   int keypoints = 0;            // consensus size (homography inliers)
   bool in_view = false;         // all four corners inside the image (valid when tracked)
+  CornerMask seen{};            // which corners are inside the image (valid when tracked)
   bool recovered = false;       // descriptor matching against the model was run in this frame
   bool edge_refined = false;    // corners came from the edge refinement
   double appearance = 0.0;      // NCC of the appearance check
