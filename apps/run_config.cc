@@ -71,6 +71,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.max_depth_m", &e.max_depth_m, kPositive},
       {"estimator.reinit_gate_px", &e.reinit_gate_px, kNonNegative},
       {"estimator.start_agree_px", &e.start_agree_px, kNonNegative},
+      {"estimator.start_agree_gap_s", &e.start_agree_gap_s, kNonNegative},
       {"estimator.global.enabled", &e.global.enabled, kAny},
       {"estimator.global.every_keyframes", &e.global.every_keyframes, kAtLeastOne},
       {"estimator.global.max_iterations", &e.global.max_iterations, kAtLeastOne},

@@ -94,6 +94,8 @@ bool EstimatorOptions::Check(std::string* why) const {
     os << "reinit_gate_px must be >= 0";
   else if (!(start_agree_px >= 0.0))
     os << "start_agree_px must be >= 0";
+  else if (!(start_agree_gap_s >= 0.0))
+    os << "start_agree_gap_s must be >= 0";
   else if (!faults.Check(&sub))
     os << "faults: " << sub;
   else if (!global.Check(&sub))
@@ -189,8 +191,7 @@ void Estimator::Impl::InitializeNewObjects(Keyframe* kf) {
         start_views[o.object_id] = {kf, o};
         continue;
       }
-      // The second view a keyframe interval later: consecutive frames share a front end's error.
-      if (kf->state.t_ns - first->kf->state.t_ns < KeyframeInterval() * 1e9 - 1e6) continue;
+      if (kf->state.t_ns - first->kf->state.t_ns < options.start_agree_gap_s * 1e9 - 1e6) continue;
       if (!ViewsAgree(*first, *kf, o)) {
         ++summary.starts_rejected;
         start_views[o.object_id] = {kf, o};
@@ -220,6 +221,18 @@ void Estimator::Impl::InitializeNewObjects(Keyframe* kf) {
           })) {
         obj->first_seen = keyframes[i]->index;
         break;
+      }
+    }
+    // The views of earlier keyframes that become factors count as observations (kf, the newest,
+    // is counted by the caller).
+    for (size_t i = window_begin; i + 1 < keyframes.size(); ++i) {
+      if (keyframes[i]->index < obj->first_seen) continue;
+      for (const ObjectObservation& p : keyframes[i]->observations) {
+        if (p.object_id != o.object_id) continue;
+        ++obj->observations;
+        obj->last_seen = keyframes[i]->index;
+        ++summary.observations_used;
+        if (!p.Complete()) ++summary.observations_partial;
       }
     }
     obj->landmark = Landmark::FromSingleView(options.landmarks, s.landmark);

@@ -239,7 +239,9 @@ struct Estimator::Impl {
   // frame that sees an object not in the map or (window mode) back after leaving the window (it may
   // become the object's anchor, and only keyframes can be anchors).
   bool IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const {
-    const double interval = KeyframeInterval();
+    const double interval = options.mode == EstimatorMode::kBatch
+                                ? options.batch_keyframe_interval_s
+                                : options.keyframe_interval_s;
     if (interval <= 0.0) return true;
     const Keyframe& last = *keyframes.back();  // a keyframe: a non-keyframe newest was just dropped
     if (static_cast<double>(t_ns - last.state.t_ns) >= interval * 1e9 - 1e6) return true;
@@ -259,11 +261,6 @@ struct Estimator::Impl {
     if (it == start_views.end() || it->second.kf->index < keyframes[window_begin]->index)
       return nullptr;
     return &it->second;
-  }
-  // Keyframe spacing [s] (window or batch).
-  double KeyframeInterval() const {
-    return options.mode == EstimatorMode::kBatch ? options.batch_keyframe_interval_s
-                                                 : options.keyframe_interval_s;
   }
 
   // Whether the vehicle stood still between keyframes `prev` and `kf` (ZeroVelocityOptions): no

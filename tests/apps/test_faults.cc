@@ -104,7 +104,7 @@ TEST(Faults, NoFaultNoCounter) {
     EXPECT_EQ(r.faults[k].get<int>(), 0) << k;
   EXPECT_TRUE(r.faults["warnings"].empty());
   EXPECT_EQ(r.run["estimator"]["starts_rejected"].get<int>(), 0) << "1 px noise is no fault";
-  EXPECT_LT(r.ate, 0.045);  // measured 2.8 cm (11.9 cm before the global step)
+  EXPECT_LT(r.ate, 0.045);  // measured 2.7 cm (11.9 cm before the global step)
 }
 
 // A sequence rendered without images (one grey placeholder per frame) run from pixels: the run
@@ -210,9 +210,9 @@ TEST(Faults, CorruptedImuBurstIsDetectedAndTheEstimatorRestarts) {
 }
 
 // A front end that closes an object entering the view with an inner edge (a window's pane) reports
-// wrong corners for its first frames. Here the first three whole views of every object have s2 and
-// s3 pulled a fifth of the way towards s1 and s4. The second whole view a keyframe later disagrees
-// with each such first view (starts_rejected), and the objects start from the good views; with
+// wrong corners for its first frames. Here the first two whole views of every object have s2 and
+// s3 pulled a fifth of the way towards s1 and s4. The whole view start_agree_gap_s (0.1 s) after
+// the first disagrees with it (starts_rejected), and the objects start from the good views; with
 // start_agree_px 0 every object starts from its wrong first view.
 TEST(Faults, WrongFirstViewsDoNotStartObjects) {
   const fs::path dir = test::ScratchDir();
@@ -225,7 +225,7 @@ TEST(Faults, WrongFirstViewsDoNotStartObjects) {
     std::vector<std::string> f;
     std::stringstream ss(line);
     for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-    if (line[0] != '#' && f.size() >= 11 && f[10] == "1" && corrupted[std::stoi(f[1])]++ < 3) {
+    if (line[0] != '#' && f.size() >= 11 && f[10] == "1" && corrupted[std::stoi(f[1])]++ < 2) {
       // u_j, v_j are columns 2j, 2j + 1 (j = 1..4): s2 towards s1, s3 towards s4.
       for (const auto& [moved, towards] : {std::pair{2, 1}, std::pair{3, 4}})
         for (int xy = 0; xy < 2; ++xy) {
@@ -243,12 +243,13 @@ TEST(Faults, WrongFirstViewsDoNotStartObjects) {
   const int objects = static_cast<int>(corrupted.size());
   EXPECT_GE(r.run["estimator"]["starts_rejected"].get<int>(), objects - 1);
   EXPECT_LE(r.run["estimator"]["starts_rejected"].get<int>(), objects + 1);
-  EXPECT_LT(r.ate, 0.045);  // as the clean run's bound
+  EXPECT_LT(r.ate, 0.045);  // as the clean run's bound; measured 2.2 cm (clean 2.7 cm)
 
   const fs::path cfg = dir / "off.yaml";
   std::ofstream(cfg) << "estimator:\n  start_agree_px: 0\n";
   const FaultRun off = RunFaulty(dir / "seq", dir / "off", "--config " + cfg.string());
   EXPECT_EQ(off.run["estimator"]["starts_rejected"].get<int>(), 0);
+  EXPECT_LT(r.ate, off.ate);  // measured 2.2 against 3.3 cm
 }
 
 }  // namespace

@@ -247,6 +247,9 @@ struct EstimatorOptions {
   // such a view, the default room's window from pixels was 10-38 cm off for 4 s. 0: an object
   // starts from its first whole view.
   double start_agree_px = 4.0;
+  // ...the second view at least this long after the first [s]: consecutive frames share a front
+  // end's error (the pane's edge above held for 3 frames).
+  double start_agree_gap_s = 0.1;
   // Objects (instances) seen by fewer keyframes than this are not reported in the map.
   int min_observations = 3;
   FaultOptions faults;
