@@ -92,8 +92,7 @@ struct FrontEnd::Impl {
     std::map<int, Corners> tracked;         // this frame's corners of the live objects
     std::map<int, Corners> from_detection;  // corners of objects (re)started in this frame
     std::map<int, double> score;            // their confidence (tracker or detector)
-    std::map<int, CornerMask>
-        out_of_view;  // tracked, but a corner is outside the image: those in it
+    std::map<int, CornerMask> out_of_view;  // tracked partly out of view: the corners in it
   };
 
   // frontend.cc
