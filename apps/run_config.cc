@@ -66,6 +66,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.prior_log_omega_sigma", &e.prior_log_omega_sigma, kPositive},
       {"estimator.max_past_views", &e.max_past_views, kNonNegative},
       {"estimator.min_observations", &e.min_observations, kAtLeastOne},
+      {"estimator.max_size_sigma_frac", &e.max_size_sigma_frac, kNonNegative},
       {"estimator.mature_views", &e.mature_views, kAtLeastOne},
       {"estimator.min_depth_m", &e.min_depth_m, kPositive},
       {"estimator.max_depth_m", &e.max_depth_m, kPositive},

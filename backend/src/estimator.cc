@@ -84,6 +84,8 @@ bool EstimatorOptions::Check(std::string* why) const {
     os << "prior sigmas must be > 0";
   else if (min_observations < 1)
     os << "min_observations must be >= 1";
+  else if (!(max_size_sigma_frac >= 0.0))
+    os << "max_size_sigma_frac must be >= 0";
   else if (mature_views < 1)
     os << "mature_views must be >= 1";
   else if (max_past_views < 0 || batch_solve_every < 1)
@@ -587,6 +589,9 @@ std::vector<MapObject> Estimator::Map() const {
     auto it = d.sigmas.find(obj);
     m.width_sigma = it == d.sigmas.end() ? -1.0 : it->second.first;
     m.height_sigma = it == d.sigmas.end() ? -1.0 : it->second.second;
+    const double frac = d.options.max_size_sigma_frac;
+    if (frac > 0.0 && (m.width_sigma > frac * m.width || m.height_sigma > frac * m.height))
+      continue;
     map.push_back(m);
   }
   return map;

@@ -52,6 +52,22 @@ TEST(RealRecordings, EurocStandingStillStaysWithinTwoCentimetres) {
                                                " --config " + (dir / "off.yaml").string());
   ASSERT_EQ(off.exit_code, 0) << off.err;
   EXPECT_GT(MaxDistanceFromStart(dir / "off" / "trajectory.tum"), 2.0 * d_on);
+
+  // Standing still, the board's depth has no parallax: its size comes mostly from the class prior
+  // (measured 1.15 +- 0.68 m wide). The map reports that σ, and leaves the board out when asked for
+  // sizes known better than half (estimator.max_size_sigma_frac; default 0.8).
+  ASSERT_EQ(map["objects"].size(), 1u);
+  const double w = map["objects"][0]["width"].get<double>();
+  const double sw = map["objects"][0]["width_sigma"].get<double>();
+  EXPECT_GT(sw, 0.5 * w);
+  EXPECT_LT(sw, 0.8 * w);
+  std::ofstream(dir / "half.yaml") << "estimator:\n  max_size_sigma_frac: 0.5\n";
+  const test::CommandResult half = test::RunFsp("run " + seq + " --out " + (dir / "half").string() +
+                                                " --config " + (dir / "half.yaml").string());
+  ASSERT_EQ(half.exit_code, 0) << half.err;
+  nlohmann::json half_map;
+  std::ifstream(dir / "half" / "map.json") >> half_map;
+  EXPECT_EQ(half_map["objects"].size(), 0u);
 }
 
 }  // namespace
