@@ -238,30 +238,10 @@ struct Estimator::Impl {
   // (batch: batch_keyframe_interval_s), and any
   // frame that sees an object not in the map or (window mode) back after leaving the window (it may
   // become the object's anchor, and only keyframes can be anchors).
-  bool IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const {
-    const double interval = options.mode == EstimatorMode::kBatch
-                                ? options.batch_keyframe_interval_s
-                                : options.keyframe_interval_s;
-    if (interval <= 0.0) return true;
-    const Keyframe& last = *keyframes.back();  // a keyframe: a non-keyframe newest was just dropped
-    if (static_cast<double>(t_ns - last.state.t_ns) >= interval * 1e9 - 1e6) return true;
-    const int first_in_window = keyframes[window_begin]->index;
-    for (const ObjectObservation& o : obs) {
-      auto it = objects.find(o.object_id);
-      if (o.Complete() && it == objects.end() && !WaitingStart(o.object_id)) return true;
-      if (o.Complete() && it != objects.end() && it->second->last_seen < first_in_window)
-        return true;
-    }
-    return false;
-  }
+  bool IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const;
   // The first whole view of an object not in the map that waits for a second (in the window),
   // nullptr if none.
-  const StartView* WaitingStart(int object_id) const {
-    const auto it = start_views.find(object_id);
-    if (it == start_views.end() || it->second.kf->index < keyframes[window_begin]->index)
-      return nullptr;
-    return &it->second;
-  }
+  const StartView* WaitingStart(int object_id) const;
 
   // Whether the vehicle stood still between keyframes `prev` and `kf` (ZeroVelocityOptions): no
   // mean turn since `prev`, and the objects `kf` shares with still_reference where they were then.
@@ -276,23 +256,7 @@ struct Estimator::Impl {
 
   // Removes the newest frame (not a keyframe) from the window: its pose was reported, its
   // observations are forgotten, and the next frame's IMU factor starts at the last keyframe.
-  void DropNewest() {
-    const Keyframe& kf = *keyframes.back();
-    const Keyframe* ref = keyframes[keyframes.size() - 2].get();  // a keyframe (see AddKeyframe)
-    const Rigid3 T_W_ref = ref->state.T_W_B();
-    dropped.push_back({kf.frame, ref, T_W_ref.Inverse() * kf.state.T_W_B(),
-                       T_W_ref.rotation().conjugate() * kf.state.v_W()});
-    for (const ObjectObservation& o : kf.observations) {
-      auto it = objects.find(o.object_id);
-      if (it == objects.end()) continue;
-      --it->second->observations;
-      --summary.observations_used;
-      if (!o.Complete()) --summary.observations_partial;
-    }
-    for (auto it = start_views.begin(); it != start_views.end();)
-      it = it->second.kf == &kf ? start_views.erase(it) : std::next(it);
-    keyframes.pop_back();
-  }
+  void DropNewest();
 
   void PruneImu() {
     const int64_t keep_from = keyframes[window_begin]->state.t_ns;

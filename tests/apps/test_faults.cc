@@ -52,6 +52,27 @@ void CopyWithout(const fs::path& dir, const std::string& file,
   }
 }
 
+// Copies the sequence into DIR with every data row of FILE passed through EDIT as its
+// comma-separated fields (comment lines are kept as they are).
+void CopyEditing(const fs::path& dir, const std::string& file,
+                 const std::function<void(std::vector<std::string>*)>& edit) {
+  CopyWithout(dir, file, [](int64_t) { return false; });
+  std::ifstream in(Sequence() / file);
+  std::ofstream out(dir / file);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#') {
+      std::vector<std::string> f;
+      std::stringstream ss(line);
+      for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+      edit(&f);
+      line = f[0];
+      for (size_t k = 1; k < f.size(); ++k) line += "," + f[k];
+    }
+    out << line << "\n";
+  }
+}
+
 bool Outside(int64_t t_ns, double from_s, double to_s) {
   return t_ns < static_cast<int64_t>(from_s * 1e9) || t_ns >= static_cast<int64_t>(to_s * 1e9);
 }
@@ -184,23 +205,11 @@ TEST(Faults, DivergenceIsDetectedAndTheEstimatorRestarts) {
 // on this loop).
 TEST(Faults, CorruptedImuBurstIsDetectedAndTheEstimatorRestarts) {
   const fs::path dir = test::ScratchDir();
-  CopyWithout(dir / "seq", "mav0/imu0/data.csv", [](int64_t) { return false; });
-  std::ifstream in(Sequence() / "mav0/imu0/data.csv");
-  std::ofstream out(dir / "seq/mav0/imu0/data.csv");
-  std::string line;
-  while (std::getline(in, line)) {
-    const int64_t t = line[0] == '#' ? -1 : std::stoll(line.substr(0, line.find(',')));
-    if (t >= 10'000'000'000 && t < 10'500'000'000) {
-      std::vector<std::string> f;
-      std::stringstream ss(line);
-      for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-      f[4] = std::to_string(std::stod(f[4]) + 60.0);  // a_x
-      line = f[0];
-      for (size_t k = 1; k < f.size(); ++k) line += "," + f[k];
-    }
-    out << line << "\n";
-  }
-  out.close();
+  CopyEditing(dir / "seq", "mav0/imu0/data.csv", [](std::vector<std::string>* f) {
+    const int64_t t = std::stoll((*f)[0]);
+    if (t >= 10'000'000'000 && t < 10'500'000'000)
+      (*f)[4] = std::to_string(std::stod((*f)[4]) + 60.0);  // a_x
+  });
   const FaultRun r = RunFaulty(dir / "seq", dir / "burst");
   ExpectCompleteRun(r, kFrames);
   EXPECT_GE(r.faults["divergences"].get<int>(), 1);
@@ -216,28 +225,16 @@ TEST(Faults, CorruptedImuBurstIsDetectedAndTheEstimatorRestarts) {
 // start_agree_px 0 every object starts from its wrong first view.
 TEST(Faults, WrongFirstViewsDoNotStartObjects) {
   const fs::path dir = test::ScratchDir();
-  CopyWithout(dir / "seq", "observations_gt.csv", [](int64_t) { return false; });
-  std::ifstream in(Sequence() / "observations_gt.csv");
-  std::ofstream out(dir / "seq/observations_gt.csv");
   std::map<int, int> corrupted;  // whole views corrupted per object id
-  std::string line;
-  while (std::getline(in, line)) {
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-    if (line[0] != '#' && f.size() >= 11 && f[10] == "1" && corrupted[std::stoi(f[1])]++ < 2) {
-      // u_j, v_j are columns 2j, 2j + 1 (j = 1..4): s2 towards s1, s3 towards s4.
-      for (const auto& [moved, towards] : {std::pair{2, 1}, std::pair{3, 4}})
-        for (int xy = 0; xy < 2; ++xy) {
-          const double a = std::stod(f[2 * moved + xy]), b = std::stod(f[2 * towards + xy]);
-          f[2 * moved + xy] = std::to_string(a + 0.2 * (b - a));
-        }
-      line = f[0];
-      for (size_t k = 1; k < f.size(); ++k) line += "," + f[k];
-    }
-    out << line << "\n";
-  }
-  out.close();
+  CopyEditing(dir / "seq", "observations_gt.csv", [&](std::vector<std::string>* f) {
+    if (f->size() < 11 || (*f)[10] != "1" || corrupted[std::stoi((*f)[1])]++ >= 2) return;
+    // u_j, v_j are columns 2j, 2j + 1 (j = 1..4): s2 towards s1, s3 towards s4.
+    for (const auto& [moved, towards] : {std::pair{2, 1}, std::pair{3, 4}})
+      for (int xy = 0; xy < 2; ++xy) {
+        const double a = std::stod((*f)[2 * moved + xy]), b = std::stod((*f)[2 * towards + xy]);
+        (*f)[2 * moved + xy] = std::to_string(a + 0.2 * (b - a));
+      }
+  });
   const FaultRun r = RunFaulty(dir / "seq", dir / "wrong_first");
   ExpectCompleteRun(r, kFrames);
   const int objects = static_cast<int>(corrupted.size());
