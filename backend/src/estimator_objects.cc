@@ -6,9 +6,8 @@
 namespace fsp::backend {
 
 bool Estimator::Impl::IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const {
-  const double interval = options.mode == EstimatorMode::kBatch
-                              ? options.batch_keyframe_interval_s
-                              : options.keyframe_interval_s;
+  const double interval = options.mode == EstimatorMode::kBatch ? options.batch_keyframe_interval_s
+                                                                : options.keyframe_interval_s;
   if (interval <= 0.0) return true;
   const Keyframe& last = *keyframes.back();  // a keyframe: a non-keyframe newest was just dropped
   if (static_cast<double>(t_ns - last.state.t_ns) >= interval * 1e9 - 1e6) return true;
@@ -16,8 +15,7 @@ bool Estimator::Impl::IsKeyframe(int64_t t_ns, const std::vector<ObjectObservati
   for (const ObjectObservation& o : obs) {
     auto it = objects.find(o.object_id);
     if (o.Complete() && it == objects.end() && !WaitingStart(o.object_id)) return true;
-    if (o.Complete() && it != objects.end() && it->second->last_seen < first_in_window)
-      return true;
+    if (o.Complete() && it != objects.end() && it->second->last_seen < first_in_window) return true;
   }
   return false;
 }
