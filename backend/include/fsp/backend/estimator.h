@@ -4,7 +4,7 @@
 // frames.
 //
 // Modes:
-//  - kWindow (online): keyframes every keyframe_interval_s (default 0.2 s), the newest frame
+//  - kWindow (online): keyframes every keyframe_interval_s (default 0.1 s), the newest frame
 //    always solved with them; the problem holds the last `window_size` keyframes
 //    and the objects they see. When a keyframe leaves the window, the objects anchored at it are
 //    re-anchored exactly at the newest keyframe that sees s1 in front (reanchor.h); its inertial
@@ -172,13 +172,12 @@ struct EstimatorOptions {
   // when it sees an object that is new (or back after leaving the window) [s]. Other frames are
   // solved with the window (their pose is reported) and then dropped. Longer: the window spans more
   // time (better scale and velocity before marginalisation) for the same CPU; too long: less visual
-  // information per second. 0 = every frame is a keyframe. Measured (default room, 1 px, render
-  // seeds 1/2/3, with the global step; backend/README.md, "Cost"): 0.1 s -> ATE 0.62/0.30/0.75 cm,
-  // width error 0.23/0.20/0.24 cm; 0.2 s -> 0.85/0.46/1.03 cm, 0.39/0.30/0.41 cm. 0.1 s costs
-  // what 0.2 s did before the back end was made cheaper, and the hall flight too does better with
-  // it (ATE 1.38 against 2.80 cm), but it is not the default: from pixels the default room's
-  // tracking success drops 97 -> 95 % and its corners get worse.
-  double keyframe_interval_s = 0.2;
+  // information per second. 0 = every frame is a keyframe. Measured (default room 60 s, render
+  // seeds 1/2/3, noise seed 1; backend/README.md, "Cost"), 0.2 s -> 0.1 s: gt-corners FSP ATE
+  // 0.47/0.29/0.55 -> 0.29/0.24/0.37 cm, causal 2.9/2.4/2.9 -> 2.6/2.1/2.7 cm; FHP causal
+  // 4.1/3.8/4.1 -> 3.0/2.6/3.2 cm; from pixels causal 4.0/3.8/4.7 -> 2.6/2.8/3.1 cm at the same
+  // tracking success; the hall flight FSP ATE 2.3 -> 1.3 cm.
+  double keyframe_interval_s = 0.1;
   // Batch mode: the same for the batch (and a keyframe on every new object); the other frames are
   // predicted through the IMU, not solved [s]. 0 = every frame is a keyframe. Measured (1 px, seed
   // 1): default room 60 s: 0 -> ATE 0.42 cm at 0.4x real time, 0.2 -> 0.67 cm at 4.2x; its first
