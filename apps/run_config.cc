@@ -155,6 +155,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.replace_candidates", &f.replace_candidates, kAny},
       {"frontend.confirm_away_from_border", &f.confirm_away_from_border, kAny},
       {"frontend.reid_at_confirmation", &f.reid_at_confirmation, kAny},
+      {"frontend.reid_away_from_border", &f.reid_away_from_border, kAny},
       {"frontend.detect_on_predicted_return", &f.detect_on_predicted_return, kAny},
       {"frontend.detect_skip_tracked_frac", &f.detect_skip_tracked_frac, kNonNegative},
       {"frontend.match_gate_frac", &f.match_gate_frac, kNonNegative},

@@ -256,7 +256,10 @@ void FrontEnd::Impl::StartOrResume(const std::vector<Detection>& dets,
     for (const auto& [id, c] : w->tracked) on_live = on_live || InsideConvex(c, centre);
     if (on_live) continue;
     Corners corners;
-    int id = Reidentify(w->gray, d, w->prediction, w->o, &corners);
+    int id = d.object_class == ObjectClass::kTag || !w->o.reid_away_from_border ||
+                     AwayFromBorder(d, w->o)
+                 ? Reidentify(w->gray, d, w->prediction, w->o, &corners)
+                 : -1;
     if (id < 0 && d.object_class == ObjectClass::kTag) continue;
     if (id >= 0) {
       if (!tracker.Resume(id, w->gray, corners)) continue;

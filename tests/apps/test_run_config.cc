@@ -81,7 +81,7 @@ TEST(RunConfig, OptionsStructsHaveTheFieldsTheConfigKnows) {
 
 TEST(RunConfig, ValuesAreApplied) {
   const RunConfig c = ParseRunConfig(
-      "estimator:\n  window_size: 7\n  mode: batch\n  landmarks: fhp\n  robust: {type: cauchy, "
+      "estimator:\n  window_size: 7\n  mode: batch\n  landmarks: fhp\n  robust: {type: huber, "
       "k_sigma: 3}\n"
       "  single_view_init:\n    refine: false\nimu:\n  gyroscope_noise_density: 1.0e-3\n"
       "frontend:\n  gt_corners:\n    pixel_sigma: 0\n    seed: 42\n",
@@ -89,7 +89,7 @@ TEST(RunConfig, ValuesAreApplied) {
   EXPECT_EQ(c.estimator.window_size, 7);
   EXPECT_EQ(c.estimator.mode, backend::EstimatorMode::kBatch);
   EXPECT_EQ(c.estimator.landmarks, backend::LandmarkType::kFhp);
-  EXPECT_EQ(c.estimator.robust.type, backend::RobustLossOptions::Type::kCauchy);
+  EXPECT_EQ(c.estimator.robust.type, backend::RobustLossOptions::Type::kHuber);
   EXPECT_EQ(c.estimator.robust.k_sigma, 3.0);
   EXPECT_FALSE(c.estimator.init.refine);
   EXPECT_EQ(c.gt_corners.pixel_sigma, 0.0);

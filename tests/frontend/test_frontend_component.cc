@@ -136,10 +136,12 @@ TEST(FrontEndComponent, ReidentificationFollowsTheMapsPrediction) {
   })) << "not in the map";
   // A detection touching the border (here: every detection, through a margin wider than the
   // clip's objects are from it) may be a cut outline that merely looks like the object: once the
-  // map is known it returns only where the map predicts it, not 100 px away.
+  // map is known it returns only where the map predicts it, not 100 px away (with
+  // reid_away_from_border off; on, the default, such a detection resumes nothing, below).
   FrontEndOptions border;
   border.border_margin_px = 400.0;
   border.confirm_away_from_border = false;
+  border.reid_away_from_border = false;
   const auto shifted = [](double dx) {
     return [dx](int id, const Corners& c) {
       FramePrediction p;
@@ -152,6 +154,9 @@ TEST(FrontEndComponent, ReidentificationFollowsTheMapsPrediction) {
   EXPECT_TRUE(WindowReturnsUnderItsId(shifted(0.0), border)) << "at the border, predicted there";
   EXPECT_FALSE(WindowReturnsUnderItsId(shifted(100.0), border))
       << "at the border, predicted 100 px away";
+  border.reid_away_from_border = true;
+  EXPECT_FALSE(WindowReturnsUnderItsId(shifted(0.0), border))
+      << "at the border, predicted there, but its outline not trusted to resume a track";
   // Once the map is known an object returns only where the map predicts it (within
   // reid_gate_frac), away from the border too; by appearance up to reid_reject_frac from the
   // prediction only with reid_only_where_predicted off.
