@@ -59,6 +59,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.keyframe_interval_s", &e.keyframe_interval_s, kNonNegative},
       {"estimator.batch_keyframe_interval_s", &e.batch_keyframe_interval_s, kNonNegative},
       {"estimator.window_max_iterations", &e.window_max_iterations, kAtLeastOne},
+      {"estimator.frame_motion_only", &e.frame_motion_only, kAny},
       {"estimator.batch_solve_every", &e.batch_solve_every, kAtLeastOne},
       {"estimator.batch_max_iterations", &e.batch_max_iterations, kAtLeastOne},
       {"estimator.prior_gyro_bias_sigma", &e.prior_gyro_bias_sigma, kPositive},

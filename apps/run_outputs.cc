@@ -148,6 +148,7 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                     {"marginalizations", s.marginalizations},
                     {"marginalization_failures", s.marginalization_failures},
                     {"zero_velocity_keyframes", s.zero_velocity_keyframes},
+                    {"motion_only_frames", s.motion_only_frames},
                     {"zero_velocity_stretches", s.zero_velocity_stretches},
                     {"batch_solve_ms", s.batch_solve_ms},
                     {"backend_ms_by_tenth", BackendByTenth(s.backend_ms)},

@@ -33,6 +33,15 @@ void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
   }
   AddVisualFactors(&problem, window_begin, n, /*mature=*/true);
   AddObjectPriors(&problem);
+  if (!finish && options.frame_motion_only && !keyframes.back()->keyframe) {
+    // A tracking step: everything but the newest frame's own state is held.
+    std::vector<double*> blocks;
+    problem.GetParameterBlocks(&blocks);
+    const KeyframeState& newest = keyframes.back()->state;
+    for (double* b : blocks)
+      if (b != newest.pose && b != newest.speed_bias) problem.SetParameterBlockConstant(b);
+    ++summary.motion_only_frames;
+  }
   const Snapshot before = Save(window_begin);
   ceres::Solver::Summary s;
   ceres::Solve(SolverOptions(max_iterations), &problem, &s);

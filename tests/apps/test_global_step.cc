@@ -96,6 +96,24 @@ TEST(GlobalStep, FixedBoundaryKeyframeAlsoCloses) {
   EXPECT_LT(r.causal_ate, 0.08);
 }
 
+// A frame that is no keyframe is solved for its own state alone (frame_motion_only, the default),
+// not with the whole window: the same accuracy as re-solving the window with it. Measured (seed 1):
+// ATE 1.43 / 1.43 cm, causal 3.52 / 3.50 cm (alone / whole window).
+TEST(GlobalStep, FramesBetweenKeyframesAreSolvedAlone) {
+  const fs::path dir = test::ScratchDir();
+  const LoopRun alone = RunLoop(dir / "alone", "");
+  const LoopRun whole = RunLoop(dir / "whole", "estimator:\n  frame_motion_only: false\n");
+  ASSERT_GT(alone.ate, 0.0);
+  ASSERT_GT(whole.ate, 0.0);
+  const int frames = alone.run["frames"].get<int>();
+  const int keyframes = alone.run["keyframes"].get<int>();
+  EXPECT_GT(alone.run["estimator"]["motion_only_frames"].get<int>(), (frames - keyframes) / 2);
+  EXPECT_EQ(whole.run["estimator"]["motion_only_frames"].get<int>(), 0);
+  EXPECT_LT(alone.ate, 1.25 * whole.ate);
+  EXPECT_LT(alone.causal_ate, 1.25 * whole.causal_ate);
+  EXPECT_EQ(alone.objects, whole.objects);
+}
+
 // Deterministic: the same input gives byte-identical outputs, and the background schedule (the
 // global solve on its own thread, applied at a fixed keyframe) gives the same bytes as the
 // synchronous one.

@@ -187,6 +187,10 @@ struct EstimatorOptions {
   // Solver iterations per frame in the window (Levenberg-Marquardt). The window is re-solved every
   // frame, so a few iterations suffice.
   int window_max_iterations = 6;
+  // Window mode: a frame that is no keyframe is solved for its own pose, velocity and biases alone
+  // (the window's keyframes and objects held), as a tracking step; false: the whole window is
+  // re-solved with it (its information is dropped with it either way).
+  bool frame_motion_only = true;
   // Batch mode re-solves the growing problem every this many keyframes.
   int batch_solve_every = 5;
   // Iteration cap of every batch solve (the periodic ones and the final one); they stop earlier
@@ -293,6 +297,7 @@ struct EstimatorSummary {
   int marginalizations = 0;
   int marginalization_failures = 0;  // Schur complement failed: the prior was dropped
   int zero_velocity_keyframes = 0;   // keyframes found standing still (ZeroVelocityOptions)
+  int motion_only_frames = 0;        // frames solved for their own state alone (frame_motion_only)
   // The stretches found standing still, [from, to] keyframe times as in trajectory.tum [s]: the
   // keyframes of each stretch and the one before them.
   std::vector<std::pair<double, double>> zero_velocity_stretches;
