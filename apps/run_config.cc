@@ -78,6 +78,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.global.every_keyframes", &e.global.every_keyframes, kAtLeastOne},
       {"estimator.global.max_iterations", &e.global.max_iterations, kAtLeastOne},
       {"estimator.global.final_iterations", &e.global.final_iterations, kAtLeastOne},
+      {"estimator.global.function_tolerance", &e.global.function_tolerance, Range{0.0, true, 1.0}},
       {"estimator.global.boundary", &e.global.boundary, kAny},
       {"estimator.global.apply_after_keyframes", &e.global.apply_after_keyframes, kNonNegative},
       {"estimator.global.background", &e.global.background, kAny},

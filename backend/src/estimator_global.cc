@@ -139,8 +139,9 @@ void Estimator::Impl::StartGlobal() {
   auto work = [this, w] {
     const auto t0 = Clock::now();
     ceres::Problem problem(ProblemOptions());
-    w->diverged =
-        SolveAll(&w->kfs, &w->objs, options.global.max_iterations, &w->s, &problem, w->free_from);
+    ceres::Solver::Options solver = SolverOptions(options.global.max_iterations);
+    solver.function_tolerance = options.global.function_tolerance;
+    w->diverged = SolveAll(&w->kfs, &w->objs, solver, &w->s, &problem, w->free_from);
     w->ms = MsSince(t0);
   };
   if (options.global.background)

@@ -515,8 +515,8 @@ struct Estimator::Impl {
   // restored then), empty when it is not.
   // Keyframes before `free_from` are held at their estimate (GlobalOptions::max_free_keyframes):
   // only their factors that reach a free state stay in the problem.
-  std::string SolveAll(Keyframes* kfs, Objects* objs, int max_iterations, ceres::Solver::Summary* s,
-                       ceres::Problem* problem, size_t free_from = 0);
+  std::string SolveAll(Keyframes* kfs, Objects* objs, const ceres::Solver::Options& solver,
+                       ceres::Solver::Summary* s, ceres::Problem* problem, size_t free_from = 0);
 
   // SolveAll on the estimator's own keyframes and objects; false (with a warning) when rejected.
   bool SolveFull(int max_iterations, bool with_sigmas, const char* what, ceres::Solver::Summary* s);

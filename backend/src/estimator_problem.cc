@@ -144,7 +144,8 @@ ceres::CostFunction* Estimator::Impl::MakeGapPrior(double dt_s) const {
   return MakeImuGapPrior(dt_s, o);
 }
 
-std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs, int max_iterations,
+std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs,
+                                      const ceres::Solver::Options& solver,
                                       ceres::Solver::Summary* s, ceres::Problem* problem,
                                       size_t free_from) {
   free_from = std::min(free_from, kfs->size() - 1);
@@ -178,7 +179,7 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs, int max_ite
   }
   AddObjectPriors(problem, objs);
   const Snapshot before = Save(*kfs, *objs, free_from);
-  ceres::Solve(SolverOptions(max_iterations), problem, s);
+  ceres::Solve(solver, problem, s);
   const std::string diverged = Diverged(*s, before, *kfs);
   if (!diverged.empty()) Restore(before, kfs, objs);
   return diverged;
@@ -187,7 +188,8 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs, int max_ite
 bool Estimator::Impl::SolveFull(int max_iterations, bool with_sigmas, const char* what,
                                 ceres::Solver::Summary* s) {
   ceres::Problem problem(ProblemOptions());
-  const std::string diverged = SolveAll(&keyframes, &objects, max_iterations, s, &problem);
+  const std::string diverged =
+      SolveAll(&keyframes, &objects, SolverOptions(max_iterations), s, &problem);
   if (!diverged.empty()) {
     Warn(keyframes.back()->state.t_ns,
          std::string("divergence in ") + what + " (" + diverged + "): its result was rejected");

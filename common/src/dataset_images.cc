@@ -46,8 +46,12 @@ cv::Mat ReadGreyImage(const std::string& path) {
   if (!fs::is_regular_file(path, ec)) throw InputError(path, 0, "image not found");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, 0, "cannot open image");
-  const std::vector<uchar> bytes((std::istreambuf_iterator<char>(in)),
-                                 std::istreambuf_iterator<char>());
+  // One read of the whole file (a byte-wise stream iterator cost a tenth of a PNG's decoding).
+  in.seekg(0, std::ios::end);
+  std::vector<uchar> bytes(static_cast<size_t>(std::max<std::streamoff>(0, in.tellg())));
+  in.seekg(0, std::ios::beg);
+  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  if (!in) throw InputError(path, 0, "cannot read image");
   if (bytes.empty()) throw InputError(path, 0, "image file is empty");
   cv::Mat image;
   std::string cv_error;
