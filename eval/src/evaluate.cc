@@ -278,6 +278,10 @@ nlohmann::ordered_json ToJson(const Metrics& m) {
     if (f.reid_rate) b["reid_rate"] = *f.reid_rate;
     if (f.id_switches_per_1000) b["id_switches_per_1000"] = *f.id_switches_per_1000;
     if (f.corner_err_px.count > 0) b["corner_err_px_mean"] = f.corner_err_px.mean;
+    if (f.corner_outward_px.count > 0) {
+      b["corner_outward_px_median"] = f.corner_outward_px.median;
+      b["corner_outward_px_mean"] = f.corner_outward_px.mean;
+    }
     b["gt_rows"] = f.gt_rows;
     b["gt_fully_visible"] = f.gt_fully_visible;
     b["est_rows"] = f.est_rows;
@@ -340,6 +344,8 @@ std::string FormatSummary(const Metrics& m) {
        << ", precision " << (f.precision ? Format("%.4f", *f.precision) : std::string("n/a"));
     if (f.corner_err_px.count > 0)
       os << ", corner error median " << Format("%.3f", f.corner_err_px.median) << " px";
+    if (f.corner_outward_px.count > 0)
+      os << " (outwards " << Format("%+.3f", f.corner_outward_px.median) << ")";
     os << ", " << f.id_switches << " id switches";
     if (f.id_switches_per_1000)
       os << " (" << Format("%.2f", *f.id_switches_per_1000) << " per 1000 matches)";

@@ -282,17 +282,25 @@ FrontendMetrics EvaluateFrontend(const std::vector<CornerRow>& gt,
     }
   }
 
-  std::vector<double> corner_errors;
+  std::vector<double> corner_errors, outward;
   for (const Match& mt : matches) {
     ++m.matched;
     if (gt[mt.gt].FullyVisible()) ++m.matched_fully_visible;
     if (mt.shift != 0) ++m.corner_order_errors;
     for (double e : CornerErrors(est[mt.est], gt[mt.gt])) corner_errors.push_back(e);
+    const CornerRow& g = gt[mt.gt];
+    const Vec2 centre = 0.25 * (g.corners[0] + g.corners[1] + g.corners[2] + g.corners[3]);
+    for (size_t j = 0; j < 4; ++j) {
+      const Vec2 ray = g.corners[j] - centre;
+      if (ray.norm() > 0.0)
+        outward.push_back((est[mt.est].corners[j] - g.corners[j]).dot(ray.normalized()));
+    }
   }
   // recall = matched fully visible / fully visible; precision = matched / estimated rows.
   m.recall = Ratio(m.matched_fully_visible, m.gt_fully_visible);
   m.precision = Ratio(m.matched, m.est_rows);
   m.corner_err_px = ComputeStats(std::move(corner_errors));
+  m.corner_outward_px = ComputeStats(std::move(outward));
   m.unmatched_est_rows = m.est_rows - m.matched;
 
   m.id_map = MostFrequentGtId(gt, est, matches);

@@ -197,6 +197,36 @@ TEST(FrontendMetrics, HandComputedRecallPrecisionCornersAndIdSwitches) {
   EXPECT_EQ(m.id_switches, 1);
 }
 
+// The signed outward error: a 50 px square drawn 1 px too large on every side (each corner
+// sqrt(2) px out along its diagonal), then the same square shifted 1 px right (outward +-1/sqrt(2)
+// per corner: mean 0), then drawn 1 px too small.
+TEST(FrontendMetrics, OutwardErrorIsSignedAlongTheRayFromTheCentre) {
+  const auto dir = test::ScratchDir();
+  const auto gt =
+      ReadCornerRows(WriteText(dir, "observations_gt.csv",
+                               "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4,fully_visible\n"
+                               "100,1,100,150,150,150,150,100,100,100,1\n"
+                               "200,1,100,150,150,150,150,100,100,100,1\n"
+                               "300,1,100,150,150,150,150,100,100,100,1\n"));
+  const auto larger = ReadCornerRows(WriteText(dir, "larger.csv",
+                                               "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4\n"
+                                               "100,7,99,151,151,151,151,99,99,99\n"));
+  const FrontendMetrics l = EvaluateFrontend(gt, larger, FrontendOptions{});
+  EXPECT_EQ(l.corner_outward_px.count, 4u);
+  EXPECT_NEAR(l.corner_outward_px.median, std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(l.corner_err_px.median, std::sqrt(2.0), 1e-12);
+  const auto moved = ReadCornerRows(WriteText(dir, "moved.csv",
+                                              "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4\n"
+                                              "200,7,101,150,151,150,151,100,101,100\n"
+                                              "300,7,101,149,149,149,149,101,101,101\n"));
+  const FrontendMetrics m = EvaluateFrontend(gt, moved, FrontendOptions{});
+  EXPECT_EQ(m.corner_outward_px.count, 8u);
+  // Shifted: -0.707, +0.707, +0.707, -0.707; smaller: -1.414 x4.
+  EXPECT_NEAR(m.corner_outward_px.mean, -4.0 * std::sqrt(2.0) / 8.0, 1e-12);
+  EXPECT_NEAR(m.corner_outward_px.min, -std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(m.corner_outward_px.max, std::sqrt(0.5), 1e-12);
+}
+
 TEST(FrontendMetrics, GateAndEmptyEstimate) {
   const auto dir = test::ScratchDir();
   const auto gt = ReadCornerRows(WriteText(dir, "observations_gt.csv", kObservationsGt));

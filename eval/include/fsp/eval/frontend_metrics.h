@@ -70,7 +70,11 @@ struct FrontendMetrics {
   std::optional<double> recall;      // absent without fully visible ground truth
   std::optional<double> precision;   // absent without estimated rows
   ErrorStats corner_err_px;          // over 4 × matched corners
-  size_t corner_order_errors = 0;    // matches whose best cyclic shift is not the identity
+  // Signed: each matched corner's error along the ray from its ground-truth quad's centre through
+  // it [px]; positive outside (the object drawn too large, e.g. a thin dark frame's outer edge
+  // pushed out by its inner one), negative inside. A size bias that corner_err_px does not show.
+  ErrorStats corner_outward_px;
+  size_t corner_order_errors = 0;  // matches whose best cyclic shift is not the identity
   int id_switches = 0;
   std::optional<double> id_switches_per_1000;  // absent without matches
   size_t frames = 0;                           // frames of the sequence (see above)
