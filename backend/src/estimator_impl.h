@@ -473,6 +473,9 @@ struct Estimator::Impl {
   // priors. The final solve (finish) iterates longer and computes the map's width/height sigmas;
   // the per-frame one then refines the young objects alone.
   void SolveWindow(int max_iterations, bool finish = false);
+  // A frame that is no keyframe with EstimatorOptions::frame_motion_only: its own pose, velocity
+  // and biases alone, everything else held (a tracking step).
+  void SolveFrameAlone(int max_iterations);
 
   // Objects seen fewer than mature_views times are refined on their own with the poses held
   // constant: a young object's single-view guess (class-prior depth, possibly flipped normal) must

@@ -6,8 +6,13 @@
 namespace fsp::backend {
 
 void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
-  ceres::Problem problem(ProblemOptions());
   const size_t n = keyframes.size();
+  if (!finish && options.frame_motion_only && !keyframes.back()->keyframe &&
+      !keyframes.back()->gauge && n >= window_begin + 2) {
+    SolveFrameAlone(max_iterations);
+    return;
+  }
+  ceres::Problem problem(ProblemOptions());
   for (size_t i = window_begin; i < n; ++i) AddStateBlocks(&problem, keyframes[i].get());
   for (size_t i = window_begin + 1; i < n; ++i)
     if (!keyframes[i]->gauge) AddImuFactor(&problem, keyframes[i - 1].get(), keyframes[i].get());
@@ -33,15 +38,6 @@ void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
   }
   AddVisualFactors(&problem, window_begin, n, /*mature=*/true);
   AddObjectPriors(&problem);
-  if (!finish && options.frame_motion_only && !keyframes.back()->keyframe) {
-    // A tracking step: everything but the newest frame's own state is held.
-    std::vector<double*> blocks;
-    problem.GetParameterBlocks(&blocks);
-    const KeyframeState& newest = keyframes.back()->state;
-    for (double* b : blocks)
-      if (b != newest.pose && b != newest.speed_bias) problem.SetParameterBlockConstant(b);
-    ++summary.motion_only_frames;
-  }
   const Snapshot before = Save(window_begin);
   ceres::Solver::Summary s;
   ceres::Solve(SolverOptions(max_iterations), &problem, &s);
@@ -65,6 +61,43 @@ void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
   } else {
     RefineYoungObjects(max_iterations);
   }
+}
+
+void Estimator::Impl::SolveFrameAlone(int max_iterations) {
+  const size_t n = keyframes.size();
+  Keyframe* prev = keyframes[n - 2].get();
+  Keyframe* kf = keyframes[n - 1].get();
+  // Only the factors that reach the frame's state: its IMU link and its views of mature objects
+  // (the window's other factors would be built only to be held).
+  ceres::Problem problem(ProblemOptions());
+  AddStateBlocks(&problem, prev);
+  AddStateBlocks(&problem, kf);
+  AddImuFactor(&problem, prev, kf);
+  if (kf->still)
+    problem.AddResidualBlock(MakeZeroVelocityPrior(*kf), nullptr, kf->state.speed_bias);
+  const auto is_variable = [kf](const Keyframe* k) { return k == kf; };
+  for (const ObjectObservation& o : kf->observations) {
+    auto it = objects.find(o.object_id);
+    if (it != objects.end() && it->second->observations >= options.mature_views)
+      AddObservation(&problem, kf, it->second.get(), o.corners, o.seen, is_variable);
+  }
+  std::vector<double*> blocks;
+  problem.GetParameterBlocks(&blocks);
+  for (double* b : blocks)
+    if (b != kf->state.pose && b != kf->state.speed_bias) problem.SetParameterBlockConstant(b);
+  ++summary.motion_only_frames;
+  const Snapshot before = Save(n - 1);
+  ceres::Solver::Summary s;
+  ceres::Solve(SolverOptions(max_iterations), &problem, &s);
+  const std::string diverged = Diverged(s, before);
+  if (!diverged.empty()) {
+    Restore(before);
+    ++summary.divergences;
+    Restart(diverged);
+    return;
+  }
+  output[kf->frame] = kf->state.ToStateSample();
+  RefineYoungObjects(max_iterations);
 }
 
 void Estimator::Impl::ReanchorObjectsOf(Keyframe* old) {
