@@ -225,6 +225,11 @@ struct EdgeProbe {
 // order) that lies on a frame's inner edge out onto the frame's outline. Returns whether it did.
 bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* c);
 
+// RectDetectorOptions::band_max_px: moves each side of quad C (undistorted px, cyclic order) that
+// has an edge of the opposite polarity close by from its gradient peak to the edge of a two-edge
+// model fitted across it.
+void CorrectBandOffsets(const EdgeProbe& probe, Corners* c);
+
 // ---- 1. edges (rect_edges.cc) ----
 
 // Canny thresholds (Sobel magnitude units) from the median gradient magnitude; see the definition.

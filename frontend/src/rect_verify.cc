@@ -458,6 +458,7 @@ std::vector<Detection> MakeDetections(const std::vector<Quad>& quads, const Edge
     Detection det;
     det.corners_undistorted = q.c;
     MoveOntoFrameOutline(probe, &det.corners_undistorted);
+    CorrectBandOffsets(probe, &det.corners_undistorted);
     for (int i = 0; i < 4; ++i)
       det.corners_px[i] =
           cam ? cam->DistortPixel(det.corners_undistorted[i]) : det.corners_undistorted[i];

@@ -218,6 +218,12 @@ struct RectDetectorOptions {
   // sides' length ratio, the perspective) when the band's grey lies outside it, and onto an edge
   // found there. 0: off.
   double frame_band_max_frac = 0.2;
+  // Thin bands: a side whose edge has an edge of the opposite polarity within this distance on one
+  // side of it (a poster's thin dark frame, a door's architrave line) is found too far from the
+  // band, because the blur pushes the two edges' gradient peaks apart (by up to ~1.5 px for a 1 px
+  // band). A model of the two blurred edges is fitted to the side's median profile across it and
+  // the side is moved from the peak to the model's edge. 0: off.
+  double band_max_px = 4.0;
   // T-junction test: a side's edge must end at its corners. Edge points are searched on the side's
   // line extended past each corner, from `continuation_start_px` (clear of the other side's
   // blurred edge) over `continuation_frac` x the side's length; a point counts when its gradient
