@@ -142,6 +142,8 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   if (!calibration.Check(&why))
     throw InputError((config.source.empty() ? "config" : config.source) + ": " + why);
   system_options.estimator = config.estimator;
+  if (system_options.estimator.keyframe_min_frames == 0)  // auto (see EstimatorOptions)
+    system_options.estimator.keyframe_min_frames = from_images ? 2 : 1;
   system_options.estimator.imu.noise = calibration.imu;
   const backend::EstimatorOptions& options = system_options.estimator;
 

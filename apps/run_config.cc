@@ -57,6 +57,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.landmarks", &e.landmarks, kAny},
       {"estimator.window_size", &e.window_size, {2.0, false, kInf}},
       {"estimator.keyframe_interval_s", &e.keyframe_interval_s, kNonNegative},
+      {"estimator.keyframe_min_frames", &e.keyframe_min_frames, kNonNegative},
       {"estimator.batch_keyframe_interval_s", &e.batch_keyframe_interval_s, kNonNegative},
       {"estimator.window_max_iterations", &e.window_max_iterations, kAtLeastOne},
       {"estimator.frame_motion_only", &e.frame_motion_only, kAny},

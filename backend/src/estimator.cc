@@ -67,6 +67,8 @@ bool EstimatorOptions::Check(std::string* why) const {
     os << "window_size must be >= 2 (got " << window_size << ")";
   else if (window_max_iterations < 1 || batch_max_iterations < 1)
     os << "iterations must be >= 1";
+  else if (keyframe_min_frames < 0)
+    os << "keyframe_min_frames must be >= 0 (got " << keyframe_min_frames << ")";
   else if (!factor.Check(&sub))
     os << "factor: " << sub;
   else if (!robust.Check(&sub))
@@ -268,7 +270,7 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
   auto kf = std::make_unique<Keyframe>();
   kf->index = static_cast<int>(keyframes.size());
   kf->frame = static_cast<int>(output.size());
-  kf->keyframe = initial != nullptr || IsKeyframe(t_ns, obs);
+  kf->keyframe = initial != nullptr || IsKeyframe(t_ns, kf->frame, obs);
   kf->gauge = gauge;
   const Keyframe* prev_kf = initial ? nullptr : keyframes.back().get();
   const std::pair<int64_t, int64_t> hole =

@@ -238,7 +238,7 @@ struct Estimator::Impl {
   // (batch: batch_keyframe_interval_s), and any
   // frame that sees an object not in the map or (window mode) back after leaving the window (it may
   // become the object's anchor, and only keyframes can be anchors).
-  bool IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const;
+  bool IsKeyframe(int64_t t_ns, int frame, const std::vector<ObjectObservation>& obs) const;
   // The first whole view of an object not in the map that waits for a second (in the window),
   // nullptr if none.
   const StartView* WaitingStart(int object_id) const;

@@ -5,12 +5,16 @@
 
 namespace fsp::backend {
 
-bool Estimator::Impl::IsKeyframe(int64_t t_ns, const std::vector<ObjectObservation>& obs) const {
-  const double interval = options.mode == EstimatorMode::kBatch ? options.batch_keyframe_interval_s
-                                                                : options.keyframe_interval_s;
+bool Estimator::Impl::IsKeyframe(int64_t t_ns, int frame,
+                                 const std::vector<ObjectObservation>& obs) const {
+  const bool batch = options.mode == EstimatorMode::kBatch;
+  const double interval = batch ? options.batch_keyframe_interval_s : options.keyframe_interval_s;
   if (interval <= 0.0) return true;
   const Keyframe& last = *keyframes.back();  // a keyframe: a non-keyframe newest was just dropped
-  if (static_cast<double>(t_ns - last.state.t_ns) >= interval * 1e9 - 1e6) return true;
+  const int min_frames = batch ? 1 : std::max(1, options.keyframe_min_frames);
+  if (static_cast<double>(t_ns - last.state.t_ns) >= interval * 1e9 - 1e6 &&
+      frame - last.frame >= min_frames)
+    return true;
   const int first_in_window = keyframes[window_begin]->index;
   for (const ObjectObservation& o : obs) {
     auto it = objects.find(o.object_id);

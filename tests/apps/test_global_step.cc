@@ -114,6 +114,25 @@ TEST(GlobalStep, FramesBetweenKeyframesAreSolvedAlone) {
   EXPECT_EQ(alone.objects, whole.objects);
 }
 
+// estimator.keyframe_min_frames: keyframes at least that many frames apart (the room loop's 20 Hz
+// camera with keyframe_interval_s 0.05 would make every frame one), besides those made at once for
+// new objects; the default with gt-corners (auto: 1) keeps the time interval alone.
+TEST(GlobalStep, KeyframesAtLeastMinFramesApart) {
+  const fs::path dir = test::ScratchDir();
+  const LoopRun every3 = RunLoop(
+      dir / "every3", "estimator:\n  keyframe_interval_s: 0.05\n  keyframe_min_frames: 3\n");
+  const LoopRun auto_gt = RunLoop(dir / "auto", "estimator:\n  keyframe_interval_s: 0.05\n");
+  ASSERT_GT(every3.ate, 0.0);
+  ASSERT_GT(auto_gt.ate, 0.0);
+  const int frames = every3.run["frames"].get<int>();
+  const int k3 = every3.run["keyframes"].get<int>();
+  std::printf("%d frames: %d keyframes at 3 frames apart, %d with the default\n", frames, k3,
+              auto_gt.run["keyframes"].get<int>());
+  EXPECT_GE(k3, frames / 3 - 2);
+  EXPECT_LE(k3, frames / 3 + 10);  // + the keyframes of new and returning objects
+  EXPECT_EQ(auto_gt.run["keyframes"].get<int>(), frames);
+}
+
 // Deterministic: the same input gives byte-identical outputs, and the background schedule (the
 // global solve on its own thread, applied at a fixed keyframe) gives the same bytes as the
 // synchronous one.

@@ -67,7 +67,7 @@ TEST(RunConfig, DefaultYamlListsEveryKeyOnce) {
 // hand. When an Options struct grows, this fails: add the new field to Fields() and to
 // default.yaml, then update the size here.
 TEST(RunConfig, OptionsStructsHaveTheFieldsTheConfigKnows) {
-  EXPECT_EQ(sizeof(backend::EstimatorOptions), 664u) << "EstimatorOptions changed";
+  EXPECT_EQ(sizeof(backend::EstimatorOptions), 672u) << "EstimatorOptions changed";
   EXPECT_EQ(sizeof(backend::FspFactorOptions), 16u) << "FspFactorOptions changed";
   EXPECT_EQ(sizeof(backend::RobustLossOptions), 16u) << "RobustLossOptions changed";
   EXPECT_EQ(sizeof(backend::PreintegrationOptions), 64u) << "PreintegrationOptions changed";
@@ -152,6 +152,8 @@ TEST(RunConfig, BadValuesNameTheKey) {
   EXPECT_NE(e.find("true or false"), std::string::npos) << e;
   e = ParseError("estimator:\n  static_init:\n    window_s: .nan\n");
   EXPECT_NE(e.find("finite"), std::string::npos) << e;
+  e = ParseError("estimator:\n  keyframe_min_frames: -1\n");
+  EXPECT_NE(e.find("estimator.keyframe_min_frames"), std::string::npos) << e;
   e = ParseError("estimator:\n  global:\n    function_tolerance: 0\n");
   EXPECT_NE(e.find("estimator.global.function_tolerance"), std::string::npos) << e;
   e = ParseError("estimator: 3\n");
