@@ -479,8 +479,10 @@ namespace {
 
 constexpr double kBandStep = 0.5;  // profile sample spacing [px]
 
-// Fits theta = {B, c_1..c_m, a_1..a_m, log sg} (initial values in, fit out) to samples (s, y).
-bool FitEdges(const std::vector<double>& s, const std::vector<double>& y, Eigen::VectorXd* theta) {
+// Fits theta = {B, c_1..c_m, a_1..a_m, log sg} (initial values in, fit out) to samples (s, y);
+// RMS: the fit's RMS residual [grey levels].
+bool FitEdges(const std::vector<double>& s, const std::vector<double>& y, Eigen::VectorXd* theta,
+              double* rms) {
   const int m = static_cast<int>((theta->size() - 2) / 2);
   const int np = static_cast<int>(theta->size());
   const double kInvSqrt2 = 1.0 / std::sqrt(2.0), kInvSqrt2Pi = 1.0 / std::sqrt(2.0 * M_PI);
@@ -534,6 +536,7 @@ bool FitEdges(const std::vector<double>& s, const std::vector<double>& y, Eigen:
     }
   }
   *theta = t;
+  *rms = std::sqrt(cost / static_cast<double>(s.size()));
   return t.allFinite();
 }
 
@@ -603,11 +606,16 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
     prev = next;
   }
   th[2 * m + 1] = std::log(1.2);
-  if (!FitEdges(s, y, &th)) return false;
+  double rms = 0.0;
+  if (!FitEdges(s, y, &th, &rms)) return false;
   const double sg = std::exp(th[2 * m + 1]);
-  // A plausible fit: the edges keep their polarities and order, the blur is 0.3-4 px, and the
-  // side's edge moves by at most 1.5 px.
-  if (!(sg > 0.3 && sg < 4.0)) return false;
+  // A plausible fit: two clean steps (RMS residual within 5 % of the smaller step), a blur of
+  // 0.85-1.5 px (the refinement's own smoothing is 1 px; a wider fitted blur means the profile is
+  // something else, such as a cabinet's frame beside a faint inset line: moved 0.7 px inwards
+  // without this), the edges keeping their polarities and order, and the side's edge moving by at
+  // most 1.5 px.
+  if (!(sg >= 0.85 && sg <= 1.5) || !(rms <= 0.05 * std::min(std::abs(th[1]), std::abs(th[2]))))
+    return false;
   for (int e = 0; e < m; ++e) {
     if ((e == main_edge ? pol : -pol) * th[1 + e] <= 0.0) return false;
     if (e > 0 && th[1 + m + e] <= th[m + e]) return false;
