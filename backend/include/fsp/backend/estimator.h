@@ -187,10 +187,10 @@ struct EstimatorOptions {
   // Window: and at least this many frames after the last keyframe (a new object still makes one at
   // once). 0 = 1 (the application resolves it by its front end: `fsp run` takes 2 from pixels,
   // whose tracked corners share their errors between consecutive frames, and 1 with ground-truth
-  // or external corners). Only a camera slower than 2 / keyframe_interval_s (10 Hz at 0.1 s) is
-  // affected. Measured on the 135 s hall flight (10 Hz camera) from pixels: 1 -> 2 frames, ATE
-  // 3.04 -> 1.63 cm, causal 16.0 -> 12.6 cm, CPU 68 -> 36 s; with ground-truth corners (1 px,
-  // independent per frame) 2 frames instead is worse, 1.39 -> 2.39 cm.
+  // or external corners). Only a camera whose frame period reaches keyframe_interval_s (10 Hz or
+  // slower at 0.1 s) is affected. Measured on the 135 s hall flight (10 Hz camera) from pixels: 1
+  // -> 2 frames, ATE 3.04 -> 1.63 cm, causal 16.0 -> 12.6 cm, CPU 68 -> 29 s; with ground-truth
+  // corners (1 px, independent per frame) 2 frames instead is worse, 1.39 -> 2.39 cm.
   int keyframe_min_frames = 0;
   // Batch mode: the same for the batch (and a keyframe on every new object); the other frames are
   // predicted through the IMU, not solved [s]. 0 = every frame is a keyframe. Measured (1 px, seed
