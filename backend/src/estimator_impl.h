@@ -431,6 +431,12 @@ struct Estimator::Impl {
   // objects are kept).
   void Restart(const std::string& why);
 
+  // Solves PROBLEM (keyframes from FIRST on are its variables); a diverged result is rejected: the
+  // states are restored, counted, and the estimator restarted (FINISH: only warned, the final
+  // solve has no frame to restart at). False when rejected. S: the solver's summary.
+  bool SolveOrReject(ceres::Problem* problem, int max_iterations, size_t first, bool finish,
+                     ceres::Solver::Summary* s);
+
   void AddObjectPriors(ceres::Problem* problem) { AddObjectPriors(problem, &objects); }
   void AddObjectPriors(ceres::Problem* problem, Objects* objs) const {
     for (auto& [id, obj] : *objs)

@@ -38,21 +38,8 @@ void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
   }
   AddVisualFactors(&problem, window_begin, n, /*mature=*/true);
   AddObjectPriors(&problem);
-  const Snapshot before = Save(window_begin);
   ceres::Solver::Summary s;
-  ceres::Solve(SolverOptions(max_iterations), &problem, &s);
-  const std::string diverged = Diverged(s, before);
-  if (!diverged.empty()) {
-    Restore(before);
-    ++summary.divergences;
-    if (finish) {
-      Warn(keyframes.back()->state.t_ns,
-           "divergence in the final solve (" + diverged + "): its result was rejected");
-    } else {
-      Restart(diverged);
-    }
-    return;
-  }
+  if (!SolveOrReject(&problem, max_iterations, window_begin, finish, &s)) return;
   summary.final_cost = s.final_cost;
   for (size_t i = window_begin; i < n; ++i)
     output[keyframes[i]->frame] = keyframes[i]->state.ToStateSample();
@@ -61,6 +48,23 @@ void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
   } else {
     RefineYoungObjects(max_iterations);
   }
+}
+
+bool Estimator::Impl::SolveOrReject(ceres::Problem* problem, int max_iterations, size_t first,
+                                    bool finish, ceres::Solver::Summary* s) {
+  const Snapshot before = Save(first);
+  ceres::Solve(SolverOptions(max_iterations), problem, s);
+  const std::string diverged = Diverged(*s, before);
+  if (diverged.empty()) return true;
+  Restore(before);
+  ++summary.divergences;
+  if (finish) {
+    Warn(keyframes.back()->state.t_ns,
+         "divergence in the final solve (" + diverged + "): its result was rejected");
+  } else {
+    Restart(diverged);
+  }
+  return false;
 }
 
 void Estimator::Impl::SolveFrameAlone(int max_iterations) {
@@ -86,16 +90,8 @@ void Estimator::Impl::SolveFrameAlone(int max_iterations) {
   for (double* b : blocks)
     if (b != kf->state.pose && b != kf->state.speed_bias) problem.SetParameterBlockConstant(b);
   ++summary.motion_only_frames;
-  const Snapshot before = Save(n - 1);
   ceres::Solver::Summary s;
-  ceres::Solve(SolverOptions(max_iterations), &problem, &s);
-  const std::string diverged = Diverged(s, before);
-  if (!diverged.empty()) {
-    Restore(before);
-    ++summary.divergences;
-    Restart(diverged);
-    return;
-  }
+  if (!SolveOrReject(&problem, max_iterations, n - 1, /*finish=*/false, &s)) return;
   output[kf->frame] = kf->state.ToStateSample();
   RefineYoungObjects(max_iterations);
 }
