@@ -275,6 +275,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.tracker.coarse_search_px", &f.tracker.coarse_search_px, kNonNegative},
       {"frontend.tracker.min_edge_gradient", &f.tracker.min_edge_gradient, kNonNegative},
       {"frontend.tracker.max_refine_shift_px", &f.tracker.max_refine_shift_px, kNonNegative},
+      {"frontend.tracker.blur_sharpness_ratio", &f.tracker.blur_sharpness_ratio, kNonNegative},
       {"frontend.tracker.min_appearance", &f.tracker.min_appearance, kNonNegative},
       {"frontend.tracker.min_visible", &f.tracker.min_visible, kNonNegative},
       {"frontend.tracker.refresh_every", &f.tracker.refresh_every, kNonNegative},

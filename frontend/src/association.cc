@@ -207,8 +207,11 @@ bool FrontEnd::Impl::ReidentifyAtConfirmation(int id, const Detection& d, FrameW
 }
 
 // Puts live object ID's track onto detection D's corners when a corner is more than correct_px
-// off (the tracker resumes from them, keeping its model).
+// off (the tracker resumes from them, keeping its model); not while the object's edges are smeared
+// (the detection's outline lies towards the smear's end, see ObjectTrackerOptions::
+// blur_sharpness_ratio).
 void FrontEnd::Impl::Correct(int id, const Detection& d, FrameWork* w) {
+  if (w->blurred.count(id)) return;
   Corners& track = w->tracked[id];
   int shift = 0;
   MeanCornerDistanceBestShift(track, d.corners_undistorted, &shift);

@@ -174,6 +174,7 @@ bool FrontEnd::Impl::TrackAll(FrameWork* w) {
       w->tracked[t.id] = t.corners_undistorted;
       if (!t.in_view) w->out_of_view[t.id] = t.seen;  // partly in view
       w->score[t.id] = t.score;
+      if (t.blurred) w->blurred.insert(t.id);
       continue;
     }
     info.active = false;

@@ -93,6 +93,7 @@ struct FrontEnd::Impl {
     std::map<int, Corners> from_detection;  // corners of objects (re)started in this frame
     std::map<int, double> score;            // their confidence (tracker or detector)
     std::map<int, CornerMask> out_of_view;  // tracked partly out of view: the corners in it
+    std::set<int> blurred;  // tracked with smeared edges: a detection does not correct them
   };
 
   // frontend.cc

@@ -150,31 +150,61 @@ ObjectTracker::Impl::Consensus ObjectTracker::Impl::FitHomography(const Object& 
   return k;
 }
 
+// Least motion of a side across itself between frames [px] for it to count as smeared.
+constexpr double kBlurMinMotionPx = 8.0;
+
+// Motion blur (ObjectTrackerOptions::blur_sharpness_ratio): a side of quad C that is less sharp
+// than half (the ratio) its sharpest view so far and moved across itself by more than
+// kBlurMinMotionPx since the last frame. Updates the object's sharpest views (decaying by 2 % per
+// frame).
+bool ObjectTracker::Impl::Smeared(Object* ob, const cv::Mat& gray, const Corners& c) {
+  const Corners prev = CornersOf(*ob, ob->H);
+  const std::array<double, 4> sharp = SideSharpness(gray, c);
+  bool smeared = false;
+  for (int i = 0; i < 4; ++i) {
+    const Vec2 P = c[(i + 3) % 4], Q = c[i];
+    const Vec2 u = (Q - P).normalized();
+    const double across =
+        std::abs(Vec2(-u.y(), u.x()).dot(0.5 * (P + Q) - 0.5 * (prev[(i + 3) % 4] + prev[i])));
+    smeared = smeared || (sharp[i] >= 0.0 && across > kBlurMinMotionPx &&
+                          sharp[i] < o.blur_sharpness_ratio * ob->sharpness[i]);
+    ob->sharpness[i] = std::max(sharp[i], 0.98 * ob->sharpness[i]);
+  }
+  return smeared;
+}
+
 // Edge refinement (the side polarities learnt at Start) of the consensus quad: FINAL_CORNERS and
-// H_FINAL, the refined ones when it succeeds (returns true), else the consensus'.
-bool ObjectTracker::Impl::RefineOnEdges(const Object& ob, const cv::Mat& gray, const Consensus& k,
-                                        bool recovered, Corners* final_corners, Mat3* H_final) {
+// H_FINAL, the refined ones when it succeeds (returns true), else the consensus'. BLURRED: the
+// object's sides are smeared in this frame (Smeared); a trusted keypoint homography then keeps
+// the corners.
+bool ObjectTracker::Impl::RefineOnEdges(Object* ob, const cv::Mat& gray, const Consensus& k,
+                                        bool recovered, Corners* final_corners, Mat3* H_final,
+                                        bool* blurred) {
   const Mat3& H = k.H;
   const bool strong = k.strong;
-  const Corners kp_corners = CornersOf(ob, H);
+  const Corners kp_corners = CornersOf(*ob, H);
   EdgeRefinement e;
   *final_corners = kp_corners;
   // With a trusted keypoint homography, the edges refine it only for an object whose outline
   // was found at Start (a known polarity per side): on an object without a clear outline (or
   // one blurred at Start) an edge fit is noise that would drag the points with it.
-  const bool outline_known = ob.side_sign[0] != 0;
+  const bool outline_known = ob->side_sign[0] != 0;
   // After a recovery the matched homography is coarser (ORB keypoints of a pyramid level):
   // the coarse pass runs and its shift is allowed.
   const bool coarse = !strong || recovered;
   const double max_shift = recovered ? o.coarse_search_px : o.max_refine_shift_px;
+  // A smeared outline is not where the object is, the flow's homography is (the flow follows the
+  // smeared texture's centre); a plain object has no other measurement than its edges.
+  *blurred =
+      o.blur_sharpness_ratio > 0.0 && strong && outline_known && Smeared(ob, gray, kp_corners);
   bool edge_refined = false;
-  if ((!strong || outline_known) && Refine(ob, gray, kp_corners, coarse, &e) &&
+  if (!*blurred && (!strong || outline_known) && Refine(*ob, gray, kp_corners, coarse, &e) &&
       (!strong || MaxCornerDistance(e.corners_undistorted, kp_corners) <= max_shift)) {
     *final_corners = e.corners_undistorted;
     edge_refined = true;
   }
   *H_final = H;
-  if (edge_refined && !HomographyFrom4(ob.obj_corners, *final_corners, H_final)) {
+  if (edge_refined && !HomographyFrom4(ob->obj_corners, *final_corners, H_final)) {
     edge_refined = false;
     *final_corners = kp_corners;
     *H_final = H;
@@ -258,7 +288,7 @@ TrackedObject ObjectTracker::Impl::TrackOne(Object* ob, const cv::Mat& gray,
   t.keypoints = inliers;
   Corners final_corners;
   Mat3 H_final;
-  t.edge_refined = RefineOnEdges(*ob, gray, k, t.recovered, &final_corners, &H_final);
+  t.edge_refined = RefineOnEdges(ob, gray, k, t.recovered, &final_corners, &H_final, &t.blurred);
   bool lost = !strong && !t.edge_refined;
   double visible = 0.0;
   if (!lost) {

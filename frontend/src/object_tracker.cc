@@ -11,9 +11,11 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "fsp/common/error.h"
+#include "fsp/common/median.h"
 #include "fsp/frontend/edge_refine.h"
 #include "fsp/frontend/rect_geometry.h"
 #include "object_tracker_internal.h"
+#include "rect_internal.h"
 
 namespace fsp::frontend {
 namespace object_tracker_internal {
@@ -64,6 +66,8 @@ bool ObjectTrackerOptions::Check(std::string* why) const {
   if (!(coarse_search_px >= refine.search_px)) return fail("coarse_search_px must be >= search_px");
   if (!(min_edge_gradient >= 0.0)) return fail("min_edge_gradient must be >= 0");
   if (!(max_refine_shift_px > 0.0)) return fail("max_refine_shift_px must be > 0");
+  if (!(blur_sharpness_ratio >= 0.0 && blur_sharpness_ratio < 1.0))
+    return fail("blur_sharpness_ratio must be in [0, 1)");
   if (!(min_appearance >= -1.0 && min_appearance <= 1.0))
     return fail("min_appearance must be in [-1, 1]");
   if (!(min_visible > 0.0 && min_visible <= 1.0)) return fail("min_visible must be in (0, 1]");
@@ -226,6 +230,36 @@ bool ObjectTracker::Impl::Refine(const Object& ob, const cv::Mat& gray, const Co
   return out->ok && IsConvex(out->corners_undistorted);
 }
 
+// Per side, the median over 9 places along its middle of the largest grey-level step over 1 px
+// across it, of either polarity, within 10 px of it (on the smoothed image: a smear spreads the
+// step over its length, a track a few px off its outline still finds the sharp edge). A side
+// smeared by motion loses it on both polarities; a thin frame that thins further with the view (its
+// outer edge fading into its inner one) keeps the step of the other.
+std::array<double, 4> ObjectTracker::Impl::SideSharpness(const cv::Mat& gray, const Corners& c) {
+  std::array<double, 4> out = {-1.0, -1.0, -1.0, -1.0};
+  if (!SmoothForEdgeRefine(gray, Box(c, 18.0), &smooth)) return out;
+  for (int i = 0; i < 4; ++i) {
+    const Vec2 P = c[(i + 3) % 4], Q = c[i];
+    const Vec2 u = (Q - P).normalized(), n(-u.y(), u.x());
+    std::vector<double> steps;
+    for (int k = 0; k < 9; ++k) {
+      const Vec2 b = P + (0.2 + 0.6 * k / 8.0) * (Q - P);
+      std::array<double, 41> v{};  // -10 .. +10 px, 0.5 px apart
+      bool ok = true;
+      for (int j = 0; j < 41 && ok; ++j) {
+        const Vec2 d = ToDistorted(b + (0.5 * j - 10.0) * n);
+        ok = rect_internal::Bilinear(smooth, d.x(), d.y(), &v[j]);
+      }
+      if (!ok) continue;
+      double best = 0.0;
+      for (int j = 1; j < 40; ++j) best = std::max(best, std::abs(v[j + 1] - v[j - 1]));
+      steps.push_back(best);
+    }
+    out[i] = steps.size() >= 5 ? Median(steps) : -1.0;  // mostly out of the image: unknown
+  }
+  return out;
+}
+
 bool ObjectTracker::Impl::Init(Object* ob, const cv::Mat& gray, const Corners& corners,
                                bool build_model) {
   if (!IsConvex(corners) || ShortestSide(corners) < o.min_side_px) return false;
@@ -278,6 +312,7 @@ bool ObjectTracker::Impl::Init(Object* ob, const cv::Mat& gray, const Corners& c
     ob->side_sign = {0, 0, 0, 0};
     EdgeRefinement e;
     if (Refine(*ob, gray, corners, false, &e)) ob->side_sign = e.side_sign;
+    ob->sharpness = SideSharpness(gray, corners);
   }
   SeedPoints(ob, gray);
   ob->seeded = static_cast<int>(ob->pt_obj.size());

@@ -54,6 +54,8 @@ struct ObjectTracker::Impl {
     cv::Mat ref;                                  // reference patch, CV_32F, smoothed
     cv::Mat ref_valid;                            // CV_8U, 1 where the reference was in view
     std::array<int, 4> side_sign = {0, 0, 0, 0};  // edge polarity per side, 0 = unknown
+    // Per side, the sharpest view so far (SideSharpness, decaying; see blur_sharpness_ratio).
+    std::array<double, 4> sharpness = {0.0, 0.0, 0.0, 0.0};
     bool textured_interior = false;  // the reference's interior has structure (grey std >= 8)
     // State.
     Mat3 H = Mat3::Identity(), H_prev = Mat3::Identity();
@@ -133,8 +135,10 @@ struct ObjectTracker::Impl {
   void MatchModel(const Object& ob, const cv::Mat& gray, const Mat3& H_pred, Correspondences* c);
   Consensus FitHomography(const Object& ob, const Mat3& H_pred, const Correspondences& c,
                           bool recovered) const;
-  bool RefineOnEdges(const Object& ob, const cv::Mat& gray, const Consensus& k, bool recovered,
-                     Corners* final_corners, Mat3* H_final);
+  std::array<double, 4> SideSharpness(const cv::Mat& gray, const Corners& c);
+  bool Smeared(Object* ob, const cv::Mat& gray, const Corners& c);
+  bool RefineOnEdges(Object* ob, const cv::Mat& gray, const Consensus& k, bool recovered,
+                     Corners* final_corners, Mat3* H_final, bool* blurred);
   void Advance(Object* ob, const cv::Mat& gray, const TrackedObject& t, const Correspondences& c,
                const Mat3& H_final, bool strong) const;
   TrackedObject TrackOne(Object* ob, const cv::Mat& gray, const std::vector<cv::Mat>& levels,

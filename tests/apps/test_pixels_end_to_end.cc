@@ -161,18 +161,18 @@ TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
 }
 
 // Motion blur (20 ms shutter: median 6 px, p90 17 px of smear on the poster). Measured: success
-// 274/380 (0.721), median 0.29 px, no box out of view, 3/3 returns re-identified, 0 id switches (2
-// before re-identification at confirmation: a blurred poster whose appearance fell below the
-// re-identification bar restarted as a new object);
-// the misses are the blurred frames, where the corners found on the smeared edges lie 2-6 px from
-// the mid-exposure truth.
+// 342/409 (0.836; 300/409 before the tracker's blur test, `tracker.blur_sharpness_ratio`, kept the
+// keypoint homography and refused detections' corrections while the poster's sides are smeared),
+// median 0.31 px, no box out of view, 3/3 returns re-identified, 0 id switches. The misses: the
+// poster while the flow alone carries it through 1 s of zoom under blur (2-6 px), the tag lost for
+// its 0.9 s dash, the fast turns.
 TEST(PixelsEndToEnd, TrackingClipMotionBlur) {
   const fs::path clip = RenderedClip("clip_blur");
   const RunResult r = RunAndEvaluate(clip.string(), test::ScratchDir() / "run", clip);
   ASSERT_TRUE(r.metrics.frontend && r.metrics.frontend->success_rate);
   const eval::FrontendMetrics& f = *r.metrics.frontend;
   PrintTracking("blur", f);
-  EXPECT_GE(*f.success_rate, 0.70);
+  EXPECT_GE(*f.success_rate, 0.80);
   EXPECT_LE(f.corner_err_px.median, 0.5);
   EXPECT_EQ(f.boxes_out_of_view, 0u);
   EXPECT_EQ(f.reidentified, f.returns);

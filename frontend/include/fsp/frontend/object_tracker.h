@@ -11,11 +11,12 @@
 // previous frame, plus descriptor matching against the model where flow is short of points;
 // consensus by a robust homography fit (object plane -> image; a rectangle is planar, so its
 // corners follow exactly); the corners refined on the image edges with the detector's refinement
-// (edge_refine.h); where keypoints are few (a plain door), the predicted quad (caller's prediction,
-// or the last motion) refined on the edges carries the corners. Last, the appearance check: the
-// frame warped into the reference view through the new homography is compared with the reference
-// patch by normalised cross-correlation; below `min_appearance` the object is reported lost, so no
-// corners are reported for an object that is not there.
+// (edge_refine.h), unless the object's sides are smeared by its motion (blur_sharpness_ratio: the
+// keypoints' corners then stand); where keypoints are few (a plain door), the predicted quad
+// (caller's prediction, or the last motion) refined on the edges carries the corners. Last, the
+// appearance check: the frame warped into the reference view through the new homography is compared
+// with the reference patch by normalised cross-correlation; below `min_appearance` the object is
+// reported lost, so no corners are reported for an object that is not there.
 //
 // Pixels: the tracker works on the distorted image as stored; its interface speaks undistorted
 // pixels (the back end's), converted through the camera given at construction.
@@ -91,6 +92,18 @@ struct ObjectTrackerOptions {
   // With a trusted keypoint homography, edge-refined corners are kept only when no corner moved
   // more than this from the homography's [px] (a side caught by a nearby edge is refused).
   double max_refine_shift_px = 2.0;
+  // Motion blur: a side smeared by the motion has its edge towards the smear's end, not at the
+  // object's outline (a thin dark frame smeared over 13 px: ~4 px outside), and the detector finds
+  // it there too. A side is smeared when it moved more than 8 px across itself since the last frame
+  // and its sharpness (the median, along it, of the largest grey-level step over 1 px across it,
+  // either polarity, within 10 px) is below this fraction of its sharpest view so far (decaying by
+  // 2 % per frame, so that slow changes of light and background follow). A side that only loses
+  // contrast (a thin frame thinning with the view, its outer edge fading into its inner one) keeps
+  // the step of its other edge. The object is then blurred in that frame: a trusted keypoint
+  // homography keeps its corners (the flow follows the smeared texture's centre) and a detection
+  // does not correct the track. A plain object (no trusted homography) still follows its edges.
+  // 0: off.
+  double blur_sharpness_ratio = 0.5;
   // --- appearance check ---
   // Appearance check: least normalised cross-correlation between the reference patch and the frame
   // warped into it through the tracked homography [-1, 1]. Measured on synthetic sequences: right
@@ -119,6 +132,7 @@ struct TrackedObject {
   CornerMask seen{};            // which corners are inside the image (valid when tracked)
   bool recovered = false;       // descriptor matching against the model was run in this frame
   bool edge_refined = false;    // corners came from the edge refinement
+  bool blurred = false;         // its sides are smeared in this frame (blur_sharpness_ratio)
   double appearance = 0.0;      // NCC of the appearance check
   double score = 0.0;           // confidence in [0, 1]
 };
