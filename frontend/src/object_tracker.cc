@@ -312,7 +312,7 @@ bool ObjectTracker::Impl::Init(Object* ob, const cv::Mat& gray, const Corners& c
     ob->side_sign = {0, 0, 0, 0};
     EdgeRefinement e;
     if (Refine(*ob, gray, corners, false, &e)) ob->side_sign = e.side_sign;
-    ob->sharpness = SideSharpness(gray, corners);
+    if (o.blur_sharpness_ratio > 0.0) ob->sharpness = SideSharpness(gray, corners);
   }
   SeedPoints(ob, gray);
   ob->seeded = static_cast<int>(ob->pt_obj.size());
