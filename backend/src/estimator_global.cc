@@ -139,7 +139,7 @@ void Estimator::Impl::StartGlobal() {
   auto work = [this, w] {
     const auto t0 = Clock::now();
     ceres::Problem problem(ProblemOptions());
-    ceres::Solver::Options solver = SolverOptions(options.global.max_iterations);
+    ceres::Solver::Options solver = SolverOptions(options.global.max_iterations, /*whole=*/true);
     solver.function_tolerance = options.global.function_tolerance;
     w->diverged = SolveAll(&w->kfs, &w->objs, solver, &w->s, &problem, w->free_from);
     w->ms = MsSince(t0);

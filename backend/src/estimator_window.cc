@@ -53,7 +53,7 @@ void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
 bool Estimator::Impl::SolveOrReject(ceres::Problem* problem, int max_iterations, size_t first,
                                     bool finish, ceres::Solver::Summary* s) {
   const Snapshot before = Save(first);
-  ceres::Solve(SolverOptions(max_iterations), problem, s);
+  ceres::Solve(SolverOptions(max_iterations, options.mode == EstimatorMode::kBatch), problem, s);
   const std::string diverged = Diverged(*s, before);
   if (diverged.empty()) return true;
   Restore(before);
