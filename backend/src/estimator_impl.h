@@ -89,6 +89,7 @@ struct Object {
     Keyframe* keyframe;
     Corners corners;
     CornerMask seen;
+    double sigma_px;  // ObjectObservation::sigma_px
   };
   std::deque<PastView> past;
 };
@@ -349,8 +350,9 @@ struct Estimator::Impl {
   // ----------------------------------------------------------------------- Adds the factor(s) of
   // one observation of `obj` from keyframe `kf`. Poses of keyframes that are not variables of this
   // problem (`is_variable` false: they left the window) enter as constants.
+  // SIGMA_PX: the corners' noise (ObjectObservation::sigma_px; 0: options.factor.sigma_px).
   void AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj, const Corners& corners,
-                      const CornerMask& seen,
+                      const CornerMask& seen, double sigma_px,
                       const std::function<bool(const Keyframe*)>& is_variable);
 
   // Observation factors of keyframes [begin, end) and, for every object they see, its past views.

@@ -40,7 +40,7 @@ void Estimator::Impl::AddVisualFactors(ceres::Problem* problem, size_t begin, si
       auto it = objects.find(o.object_id);
       if (it == objects.end() || (it->second->observations >= options.mature_views) != mature)
         continue;
-      AddObservation(problem, kf, it->second.get(), o.corners, o.seen, is_variable);
+      AddObservation(problem, kf, it->second.get(), o.corners, o.seen, o.sigma_px, is_variable);
       seen.push_back(it->second.get());
     }
   }
@@ -49,7 +49,8 @@ void Estimator::Impl::AddVisualFactors(ceres::Problem* problem, size_t begin, si
   seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
   for (Object* obj : seen)
     for (const auto& view : obj->past)
-      AddObservation(problem, view.keyframe, obj, view.corners, view.seen, is_variable);
+      AddObservation(problem, view.keyframe, obj, view.corners, view.seen, view.sigma_px,
+                     is_variable);
 }
 
 void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
@@ -87,6 +88,7 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
 
 void Estimator::Impl::AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj,
                                      const Corners& corners, const CornerMask& seen,
+                                     double sigma_px,
                                      const std::function<bool(const Keyframe*)>& is_variable) {
   for (Keyframe* k : {kf, obj->anchor}) {
     if (is_variable(k) || problem->HasParameterBlock(k->state.pose)) continue;
@@ -94,6 +96,13 @@ void Estimator::Impl::AddObservation(ceres::Problem* problem, Keyframe* kf, Obje
     problem->SetParameterBlockConstant(k->state.pose);
   }
   // Nothing added when the object is behind the camera.
+  if (sigma_px > 0.0 && sigma_px != landmark_context.factor.sigma_px) {
+    LandmarkContext c = landmark_context;
+    c.factor.sigma_px = sigma_px;
+    obj->landmark.AddObservation(problem, corners, seen, kf->state.pose, obj->anchor->state.pose,
+                                 CameraPose(*kf), CameraPose(*obj->anchor), c);
+    return;
+  }
   obj->landmark.AddObservation(problem, corners, seen, kf->state.pose, obj->anchor->state.pose,
                                CameraPose(*kf), CameraPose(*obj->anchor), landmark_context);
 }
@@ -174,7 +183,7 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs,
       auto it = objs->find(o.object_id);
       if (it != objs->end() && kf->index >= it->second->first_seen &&
           it->second->last_seen >= static_cast<int>(free_from))
-        AddObservation(problem, kf.get(), it->second.get(), o.corners, o.seen, is_free);
+        AddObservation(problem, kf.get(), it->second.get(), o.corners, o.seen, o.sigma_px, is_free);
     }
   }
   AddObjectPriors(problem, objs);

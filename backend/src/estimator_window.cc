@@ -83,7 +83,7 @@ void Estimator::Impl::SolveFrameAlone(int max_iterations) {
   for (const ObjectObservation& o : kf->observations) {
     auto it = objects.find(o.object_id);
     if (it != objects.end() && it->second->observations >= options.mature_views)
-      AddObservation(&problem, kf, it->second.get(), o.corners, o.seen, is_variable);
+      AddObservation(&problem, kf, it->second.get(), o.corners, o.seen, o.sigma_px, is_variable);
   }
   std::vector<double*> blocks;
   problem.GetParameterBlocks(&blocks);
@@ -137,7 +137,7 @@ void Estimator::Impl::MarginalizeOldest() {
     auto it = objects.find(o.object_id);
     if (it == objects.end()) continue;
     auto& past = it->second->past;
-    past.push_back({old, o.corners, o.seen});
+    past.push_back({old, o.corners, o.seen, o.sigma_px});
     if (static_cast<int>(past.size()) > options.max_past_views) past.pop_front();
   }
   output[old->frame] = old->state.ToStateSample();

@@ -221,6 +221,7 @@ void FrontEnd::Impl::Correct(int id, const Detection& d, FrameWork* w) {
   if (worst > w->o.correct_px && tracker.Resume(id, w->gray, c)) {
     track = c;
     objects[id].last = c;
+    w->coarse.erase(id);
     ++w->result.corrected;
   }
 }

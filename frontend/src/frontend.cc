@@ -46,6 +46,10 @@ bool FrontEndOptions::Check(std::string* why) const {
   if (!(tag_crop_margin_frac >= 0.0)) return fail("tag_crop_margin_frac must be >= 0");
   if (!(reid_min_margin >= 0.0)) return fail("reid_min_margin must be >= 0");
   if (!(correct_px > 0.0)) return fail("correct_px must be > 0");
+  for (const double sigma : {edge_sigma_px, keypoint_sigma_px, edge_sigma_min_motion_px})
+    if (!(sigma >= 0.0) || !std::isfinite(sigma))
+      return fail(
+          "edge_sigma_px, keypoint_sigma_px and edge_sigma_min_motion_px must be finite and >= 0");
   if (!(border_margin_px >= 0.0)) return fail("border_margin_px must be >= 0");
   if (tag_scan_every < 0) return fail("tag_scan_every must be >= 0");
   if (first_rect_id < 0) return fail("first_rect_id must be >= 0");
@@ -170,6 +174,10 @@ bool FrontEnd::Impl::TrackAll(FrameWork* w) {
     // would keep the detector running on every frame).
     const bool expired = !info.confirmed && ++info.candidate_frames > w->o.confirm_within_frames;
     if (t.tracked && !expired) {
+      double moved = 0.0;  // mean corner motion since the previous frame [px]
+      for (int j = 0; j < 4; ++j) moved += 0.25 * (t.corners_undistorted[j] - info.last[j]).norm();
+      if (t.blurred || !t.edge_refined || moved < w->o.edge_sigma_min_motion_px)
+        w->coarse.insert(t.id);
       info.last = t.corners_undistorted;
       w->tracked[t.id] = t.corners_undistorted;
       if (!t.in_view) w->out_of_view[t.id] = t.seen;  // partly in view
@@ -258,6 +266,7 @@ void FrontEnd::Impl::Emit(int64_t t_ns, FrameWork* w) {
       obs.object_class = info.Class();
       obs.corners = c;
       obs.score = w->score[id];
+      obs.sigma_px = by_track && w->coarse.count(id) ? w->o.keypoint_sigma_px : w->o.edge_sigma_px;
       w->result.observations.push_back(obs);
     }
   std::sort(w->result.observations.begin(), w->result.observations.end(),

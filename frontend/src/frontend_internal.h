@@ -94,6 +94,9 @@ struct FrontEnd::Impl {
     std::map<int, double> score;            // their confidence (tracker or detector)
     std::map<int, CornerMask> out_of_view;  // tracked partly out of view: the corners in it
     std::set<int> blurred;  // tracked with smeared edges: a detection does not correct them
+    // Tracked corners reported with keypoint_sigma_px: not fitted to the edges (or smeared), or
+    // still since the previous frame (FrontEndOptions::edge_sigma_min_motion_px).
+    std::set<int> coarse;
   };
 
   // frontend.cc

@@ -4,6 +4,8 @@
 // drawn with exact corners (synthetic.h), moving a pixel per frame.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "fsp/common/error.h"
 #include "fsp/frontend/frontend.h"
 #include "synthetic.h"
@@ -199,6 +201,40 @@ TEST(FrontEndComponent, DetectsWhileTheMapPredictsAReturn) {
       EXPECT_GT(late, 0) << "the clip does not tell the option apart";
     }
   }
+}
+
+// Each observation says how far its corners can be trusted (ObjectObservation::sigma_px): corners
+// fitted to the edges while the object moves get edge_sigma_px; once it stands still in the image
+// (the same edges found again, the same error repeated) keypoint_sigma_px. Frames 0-24 slide the
+// objects by ~1 px per frame, from frame 25 on the image stands still.
+TEST(FrontEndComponent, ReportsTheCornerNoiseOfEachObservation) {
+  FrontEndOptions options;
+  ASSERT_LT(options.edge_sigma_px, options.keypoint_sigma_px);
+  FrontEnd fe(Camera(), options);
+  std::vector<Corners> truth;
+  int moving = 0, still = 0;
+  for (int k = 0; k < 35; ++k) {
+    const FrontEndResult r = fe.Process(MakeFrame(std::min(k, 25), 100, 100, &truth));
+    if (k < 8) continue;  // confirmation
+    ASSERT_EQ(r.observations.size(), 2u) << "frame " << k;
+    for (const ObjectObservation& o : r.observations) {
+      if (k < 25) {
+        EXPECT_EQ(o.sigma_px, options.edge_sigma_px) << "frame " << k;
+        ++moving;
+      } else if (k > 25) {
+        EXPECT_EQ(o.sigma_px, options.keypoint_sigma_px) << "frame " << k;
+        ++still;
+      }
+    }
+  }
+  EXPECT_EQ(moving, 34);
+  EXPECT_EQ(still, 18);
+  options.edge_sigma_px = 0.0;  // the estimator's own
+  options.keypoint_sigma_px = 0.0;
+  FrontEnd off(Camera(), options);
+  for (int k = 0; k < 12; ++k)
+    for (const ObjectObservation& o : off.Process(MakeFrame(k, 100, 100, &truth)).observations)
+      EXPECT_EQ(o.sigma_px, 0.0);
 }
 
 TEST(FrontEndComponent, RejectsWrongImagesWithAClearError) {

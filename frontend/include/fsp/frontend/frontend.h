@@ -137,6 +137,20 @@ struct FrontEndOptions {
   // model): the detector's corners are the better measurement, and a track that slid onto a nearby
   // edge (a window's inner frame) is put back. Larger trusts the tracker more.
   double correct_px = 2.0;
+  // The corner noise each observation reports (ObjectObservation::sigma_px) [px]: corners fitted to
+  // the object's edges (the tracker's edge refinement, a detection) and corners the keypoints'
+  // homography carried alone (no edges found, or smeared by motion); 0: the estimator's own
+  // (estimator.factor.sigma_px, 1 px). Fitted corners are better than 1 px (median error 0.11 px on
+  // the default room, 0.2 px on the hall flight) but their errors are shared between consecutive
+  // frames (a track follows its own edges), so not the residuals' scale; 0.5 px measured best of
+  // 0.35 / 0.5 / 1 on the rendered scenes (backend/README.md, "The robust loss").
+  double edge_sigma_px = 0.5;
+  double keypoint_sigma_px = 1.0;
+  // Fitted corners that moved less than this since the previous frame [px] get keypoint_sigma_px:
+  // on a still image the refinement finds the same edges again, so its error repeats from frame to
+  // frame instead of averaging out (a camera standing still would otherwise measure an object's
+  // depth from its vibration). 0: never.
+  double edge_sigma_min_motion_px = 0.5;
   // ...unless a corner of the detection lies within this of the image border [px]: there the
   // detector may have closed the quad with an inner edge (the object's side just out of view).
   double border_margin_px = 8.0;
