@@ -69,7 +69,7 @@ struct ObjectObservation {
   Corners corners;     // UNDISTORTED pixels, s1..s4 order
   double score = 1.0;  // detector/tracker confidence in [0, 1]
   // The corners' noise the source expects, per coordinate [px]; 0: the estimator's own
-  // (EstimatorOptions::factor.sigma_px). The rect front end tells corners fitted to the edges from
+  // (EstimatorOptions::factor.sigma_px). The front end tells corners fitted to the edges from
   // corners carried by the keypoints alone (FrontEndOptions::edge_sigma_px, keypoint_sigma_px).
   double sigma_px = 0.0;
   // The corners seen; the others' entries in `corners` carry no information. The back end uses a
