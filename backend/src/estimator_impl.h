@@ -445,43 +445,12 @@ struct Estimator::Impl {
       obj->landmark.AddWidthPrior(problem, obj->width_prior_m, landmark_context);
   }
 
-  ceres::Problem::Options ProblemOptions() const {
-    ceres::Problem::Options po;
-    po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    po.enable_fast_removal = false;
-    return po;
-  }
+  ceres::Problem::Options ProblemOptions() const;
 
-  // Levenberg-Marquardt with sparse normal Cholesky. Window mode (many small solves: the window
-  // every frame, the global step; backend/README.md, "Cost"): Eigen's simplicial Cholesky, and the
-  // projected line search that the depth box's bounds turn on tries its step by the cost alone
-  // (Ceres' default interpolation also evaluates every Jacobian once more per iteration); together
-  // 18-25 % less CPU than CHOLMOD and the default line search, whose supernodal factorisation and
-  // OpenMP threads cost more than they save on a few hundred variables. The batch (one problem of
-  // every frame) keeps CHOLMOD.
-  // WHOLE: a solve of every keyframe (the global step, the final solve, the batch's) starts with a
-  // wide trust region (kWholeTrustRegion), so its first step is the Gauss-Newton step: from Ceres'
-  // default (1e4) each of its 10 iterations took another ~1 % off the cost along the weakly
-  // determined directions; now it converges in 3-5. The window keeps the default: its damping
-  // holds it near the previous estimate, and undamped its causal error triples.
-  static constexpr double kWholeTrustRegion = 1e8;
-  ceres::Solver::Options SolverOptions(int max_iterations, bool whole = false) const {
-    ceres::Solver::Options so;
-    if (whole) so.initial_trust_region_radius = kWholeTrustRegion;
-    so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    if (options.mode == EstimatorMode::kWindow) {
-      so.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
-      so.line_search_interpolation_type = ceres::BISECTION;
-    }
-    so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-    so.max_num_iterations = max_iterations;
-    so.num_threads = 1;
-    so.minimizer_progress_to_stdout = false;
-    so.logging_type = ceres::SILENT;
-    so.function_tolerance = 1e-8;
-    so.parameter_tolerance = 1e-10;
-    return so;
-  }
+  // Levenberg-Marquardt with sparse normal Cholesky (estimator_problem.cc; backend/README.md,
+  // "Cost"). WHOLE: a solve of every keyframe (the global step, the final solve, the batch's),
+  // which starts undamped; the window keeps Ceres' damping.
+  ceres::Solver::Options SolverOptions(int max_iterations, bool whole = false) const;
 
   // Solves the window [window_begin, end): states, IMU factors, gauge priors while the first
   // keyframe is in it, the marginalisation prior, mature objects' observations and the object
