@@ -27,6 +27,15 @@ bool Sample(const cv::Mat& img, double x, double y, float* v) {
   return true;
 }
 
+// Patch values normalised to zero mean and unit variance over MASK (CV_32F, 0 elsewhere).
+cv::Mat Normalised(const cv::Mat& p, const cv::Mat& mask) {
+  cv::Scalar mean, sd;
+  cv::meanStdDev(p, mean, sd, mask);
+  cv::Mat n = (p - mean[0]) / std::max(sd[0], 1e-3);
+  n.setTo(0.f, mask == 0);
+  return n;
+}
+
 }  // namespace
 
 using object_tracker_internal::Apply;
@@ -126,6 +135,59 @@ double ObjectTracker::Impl::Appearance(const Object& ob, const std::vector<cv::M
     ncc = std::min(ncc, Ncc(ob.ref(in), ob.ref_valid(in), patch(in), valid(in)));
   }
   return ncc;
+}
+
+void ObjectTracker::Impl::AlignToReference(const Object& ob, const std::vector<cv::Mat>& levels,
+                                           Mat3* H) const {
+  cv::Mat patch, valid;
+  Warp(ob, levels, *H, &patch, &valid);
+  cv::Mat mask = valid & ob.ref_valid;
+  const cv::Mat ref = Normalised(ob.ref, mask);
+  Corners c = CornersOf(ob, *H);
+  double perim = 0.0;
+  for (int i = 0; i < 4; ++i) perim += (c[(i + 1) % 4] - c[i]).norm();
+  // Difference step: a quarter of the image pixels per patch pixel, at least half a pixel.
+  const double step = std::max(0.5, 0.25 * perim / (2.0 * (ob.w + ob.h)));
+  auto residual = [&](const Corners& q, cv::Mat* r) {
+    Mat3 Hq;
+    if (!HomographyFrom4(ob.obj_corners, q, &Hq)) return false;
+    cv::Mat pq, vq;
+    Warp(ob, levels, Hq, &pq, &vq);
+    *r = Normalised(pq, mask) - ref;
+    return true;
+  };
+  cv::Mat r0;
+  if (!residual(c, &r0)) return;
+  double cost = r0.dot(r0);
+  for (int it = 0; it < 5; ++it) {
+    std::array<cv::Mat, 8> J;  // numeric, per corner coordinate
+    for (int k = 0; k < 8; ++k) {
+      Corners q = c;
+      q[k / 2][k % 2] += step;
+      cv::Mat rk;
+      if (!residual(q, &rk)) return;
+      J[k] = (rk - r0) / step;
+    }
+    Eigen::Matrix<double, 8, 8> JtJ;
+    Eigen::Matrix<double, 8, 1> Jtr;
+    for (int a = 0; a < 8; ++a) {
+      Jtr(a) = J[a].dot(r0);
+      for (int b = a; b < 8; ++b) JtJ(a, b) = JtJ(b, a) = J[a].dot(J[b]);
+    }
+    JtJ.diagonal() *= 1.0 + 1e-3;  // a little damping: a corner may be poorly determined
+    const Eigen::Matrix<double, 8, 1> d = -JtJ.ldlt().solve(Jtr);
+    if (!d.allFinite() || d.norm() > 20.0 * step) break;
+    Corners q = c;
+    for (int k = 0; k < 8; ++k) q[k / 2][k % 2] += d(k);
+    cv::Mat rq;
+    if (!residual(q, &rq) || rq.dot(rq) >= cost) break;
+    c = q;
+    r0 = rq;
+    cost = rq.dot(rq);
+    if (d.norm() < 0.05) break;
+  }
+  Mat3 Hc;
+  if (HomographyFrom4(ob.obj_corners, c, &Hc)) *H = Hc;
 }
 
 // The object part of the patch without its outer 15 % (away from the outline).

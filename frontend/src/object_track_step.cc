@@ -212,6 +212,22 @@ bool ObjectTracker::Impl::RefineOnEdges(Object* ob, const cv::Mat& gray, const C
   return edge_refined;
 }
 
+// A blurred object's keypoint homography aligned to its reference patch (blur_align_*):
+// FINAL_CORNERS and H_FINAL replaced when the alignment is kept (returns true).
+bool ObjectTracker::Impl::AlignBlurred(const Object& ob, const std::vector<cv::Mat>& levels,
+                                       Corners* final_corners, Mat3* H_final) const {
+  if (o.blur_align_min_appearance <= 0.0) return false;
+  double visible = 0.0;
+  if (Appearance(ob, levels, *H_final, &visible) < o.blur_align_min_appearance) return false;
+  Mat3 H = *H_final;
+  AlignToReference(ob, levels, &H);
+  const Corners c = CornersOf(ob, H);
+  if (MaxCornerDistance(c, *final_corners) > o.blur_align_max_shift_px) return false;
+  *final_corners = c;
+  *H_final = H;
+  return true;
+}
+
 // The object's state after a tracked frame: its flow points for the next frame, its homography,
 // and new points when due.
 void ObjectTracker::Impl::Advance(Object* ob, const cv::Mat& gray, const TrackedObject& t,
@@ -236,9 +252,11 @@ void ObjectTracker::Impl::Advance(Object* ob, const cv::Mat& gray, const Tracked
       if (dup) continue;
     }
     new_obj.push_back(X);
-    if (t.edge_refined) {
+    if (t.edge_refined || t.blurred) {
       // The edges fix the homography to the object's outline: points follow it, so that the
-      // flow cannot drift away from the model (each point keeps only this frame's LK error).
+      // flow cannot drift away from the model (each point keeps only this frame's LK error). In
+      // a blurred frame they follow the aligned (or the consensus) homography: each point's flow
+      // on the smeared texture drifts on its own.
       const Vec2 d = ToDistorted(Apply(H_final, X));
       new_img.emplace_back(static_cast<float>(d.x()), static_cast<float>(d.y()));
     } else {
@@ -254,9 +272,11 @@ void ObjectTracker::Impl::Advance(Object* ob, const cv::Mat& gray, const Tracked
   ob->has_motion = strong && !t.recovered;
   ++ob->frames_since_refresh;
   // New points take their object-plane position from this frame's homography: only from a
-  // homography fixed by the edges, or by the flow alone for an object without a known outline.
-  const bool confident = t.appearance >= o.refresh_appearance &&
-                         (t.edge_refined || (!outline_known && strong && !t.recovered));
+  // homography fixed by the edges or the reference, or by the flow alone for an object without a
+  // known outline.
+  const bool confident =
+      t.appearance >= o.refresh_appearance &&
+      (t.edge_refined || t.aligned || (!outline_known && strong && !t.recovered));
   if (confident && (ob->frames_since_refresh >= o.refresh_every ||
                     2 * static_cast<int>(ob->pt_obj.size()) < ob->seeded)) {
     SeedPoints(ob, gray);
@@ -289,6 +309,7 @@ TrackedObject ObjectTracker::Impl::TrackOne(Object* ob, const cv::Mat& gray,
   Corners final_corners;
   Mat3 H_final;
   t.edge_refined = RefineOnEdges(ob, gray, k, t.recovered, &final_corners, &H_final, &t.blurred);
+  if (t.blurred) t.aligned = AlignBlurred(*ob, levels, &final_corners, &H_final);
   bool lost = !strong && !t.edge_refined;
   double visible = 0.0;
   if (!lost) {

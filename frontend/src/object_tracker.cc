@@ -68,6 +68,9 @@ bool ObjectTrackerOptions::Check(std::string* why) const {
   if (!(max_refine_shift_px > 0.0)) return fail("max_refine_shift_px must be > 0");
   if (!(blur_sharpness_ratio >= 0.0 && blur_sharpness_ratio < 1.0))
     return fail("blur_sharpness_ratio must be in [0, 1)");
+  if (!(blur_align_min_appearance >= 0.0 && blur_align_min_appearance <= 1.0))
+    return fail("blur_align_min_appearance must be in [0, 1]");
+  if (!(blur_align_max_shift_px > 0.0)) return fail("blur_align_max_shift_px must be > 0");
   if (!(min_appearance >= -1.0 && min_appearance <= 1.0))
     return fail("min_appearance must be in [-1, 1]");
   if (!(min_visible > 0.0 && min_visible <= 1.0)) return fail("min_visible must be in (0, 1]");

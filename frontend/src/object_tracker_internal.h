@@ -119,6 +119,9 @@ struct ObjectTracker::Impl {
 
   // object_appearance.cc
   static std::vector<cv::Mat> Levels(const std::vector<cv::Mat>& pyr, bool with_derivatives);
+  // Direct alignment of the frame to the reference patch: H moved (Gauss-Newton on the quad's
+  // corners, normalised residuals) so that the warped frame matches the reference best.
+  void AlignToReference(const Object& ob, const std::vector<cv::Mat>& levels, Mat3* H) const;
   double Warp(const Object& ob, const std::vector<cv::Mat>& levels, const Mat3& H, cv::Mat* patch,
               cv::Mat* valid) const;
   static double Ncc(const cv::Mat& a, const cv::Mat& va, const cv::Mat& b, const cv::Mat& vb);
@@ -139,6 +142,8 @@ struct ObjectTracker::Impl {
   bool Smeared(Object* ob, const cv::Mat& gray, const Corners& c);
   bool RefineOnEdges(Object* ob, const cv::Mat& gray, const Consensus& k, bool recovered,
                      Corners* final_corners, Mat3* H_final, bool* blurred);
+  bool AlignBlurred(const Object& ob, const std::vector<cv::Mat>& levels, Corners* final_corners,
+                    Mat3* H_final) const;
   void Advance(Object* ob, const cv::Mat& gray, const TrackedObject& t, const Correspondences& c,
                const Mat3& H_final, bool strong) const;
   TrackedObject TrackOne(Object* ob, const cv::Mat& gray, const std::vector<cv::Mat>& levels,
