@@ -86,19 +86,9 @@ void FrontEnd::Impl::DecodeTags(const cv::Mat& gray, const FrontEndOptions& o,
                                 std::vector<Detection>* dets) {
   for (Detection& d : *dets) {
     if (d.object_class != ObjectClass::kTag || d.tag_id >= 0) continue;
-    double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
-    for (const Vec2& c : d.corners_px) {
-      x0 = std::min(x0, c.x());
-      y0 = std::min(y0, c.y());
-      x1 = std::max(x1, c.x());
-      y1 = std::max(y1, c.y());
-    }
-    const double m = o.tag_crop_margin_frac * std::max(x1 - x0, y1 - y0) + 4.0;
-    const cv::Rect roi = cv::Rect(cv::Point(static_cast<int>(std::floor(x0 - m)),
-                                            static_cast<int>(std::floor(y0 - m))),
-                                  cv::Point(static_cast<int>(std::ceil(x1 + m)) + 1,
-                                            static_cast<int>(std::ceil(y1 + m)) + 1)) &
-                         cv::Rect(0, 0, gray.cols, gray.rows);
+    const Eigen::AlignedBox2d box = BoundingBox(d.corners_px);
+    const double m = o.tag_crop_margin_frac * box.sizes().maxCoeff() + 4.0;
+    const cv::Rect roi = PixelBox(box, m, gray.cols, gray.rows);
     if (roi.width < 8 || roi.height < 8) continue;
     const AprilTagDetector::Result r = crops.Detect(gray(roi).clone());
     const double gate = std::max(3.0, o.match_gate_frac * ShortestSide(d.corners_px));

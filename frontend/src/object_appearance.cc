@@ -199,19 +199,9 @@ cv::Rect ObjectTracker::Impl::Interior(const Object& ob) {
 
 // Bounding box of a quad (distorted px) grown by `margin`, clipped to the image.
 cv::Rect ObjectTracker::Impl::Box(const Corners& und, double margin) const {
-  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-  for (const Vec2& c : und) {
-    const Vec2 d = ToDistorted(c);
-    x0 = std::min(x0, d.x());
-    y0 = std::min(y0, d.y());
-    x1 = std::max(x1, d.x());
-    y1 = std::max(y1, d.y());
-  }
-  const cv::Rect r(cv::Point(static_cast<int>(std::floor(x0 - margin)),
-                             static_cast<int>(std::floor(y0 - margin))),
-                   cv::Point(static_cast<int>(std::ceil(x1 + margin)) + 1,
-                             static_cast<int>(std::ceil(y1 + margin)) + 1));
-  return r & cv::Rect(0, 0, camera.width, camera.height);
+  Corners d;
+  for (int i = 0; i < 4; ++i) d[i] = ToDistorted(und[i]);
+  return PixelBox(BoundingBox(d), margin, camera.width, camera.height);
 }
 
 // Mask of the quad (distorted) in box `r`, shrunk by `erode` px (negative: grown).

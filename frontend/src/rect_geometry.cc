@@ -164,4 +164,25 @@ double ShortestSide(const Corners& c) {
   return s;
 }
 
+Eigen::AlignedBox2d BoundingBox(const Corners& c) {
+  Eigen::AlignedBox2d b;
+  for (const Vec2& p : c) b.extend(p);
+  return b;
+}
+
+double BoxIou(const Eigen::AlignedBox2d& a, const Eigen::AlignedBox2d& b) {
+  const Eigen::AlignedBox2d i = a.intersection(b);
+  const double inter = i.isEmpty() ? 0.0 : i.volume();
+  const double uni = (a.isEmpty() ? 0.0 : a.volume()) + (b.isEmpty() ? 0.0 : b.volume()) - inter;
+  return uni > 0.0 ? inter / uni : 0.0;
+}
+
+cv::Rect PixelBox(const Eigen::AlignedBox2d& box, double margin, int cols, int rows) {
+  const cv::Rect r(cv::Point(static_cast<int>(std::floor(box.min().x() - margin)),
+                             static_cast<int>(std::floor(box.min().y() - margin))),
+                   cv::Point(static_cast<int>(std::ceil(box.max().x() + margin)) + 1,
+                             static_cast<int>(std::ceil(box.max().y() + margin)) + 1));
+  return r & cv::Rect(0, 0, cols, rows);
+}
+
 }  // namespace fsp::frontend

@@ -42,6 +42,7 @@
 #include "fsp/common/error.h"
 #include "fsp/common/observations_io.h"
 #include "fsp/frontend/object_tracker.h"
+#include "fsp/frontend/rect_geometry.h"
 
 namespace fsp {
 namespace {
@@ -79,15 +80,9 @@ class ProjectCandidate : public Candidate {
   frontend::ObjectTracker tracker_;
 };
 
-cv::Rect2d BoundingBox(const Corners& c) {
-  double x0 = c[0].x(), x1 = c[0].x(), y0 = c[0].y(), y1 = c[0].y();
-  for (const Vec2& p : c) {
-    x0 = std::min(x0, p.x());
-    x1 = std::max(x1, p.x());
-    y0 = std::min(y0, p.y());
-    y1 = std::max(y1, p.y());
-  }
-  return cv::Rect2d(x0, y0, x1 - x0, y1 - y0);
+cv::Rect2d BoxRect(const Corners& c) {
+  const Eigen::AlignedBox2d b = frontend::BoundingBox(c);
+  return cv::Rect2d(b.min().x(), b.min().y(), b.sizes().x(), b.sizes().y());
 }
 
 // Box -> corners s1..s4 (bottom-left, bottom-right, top-right, top-left; image y points down).
@@ -111,7 +106,7 @@ class OpenCvCandidate : public Candidate {
 
   void Start(int id, const cv::Mat& gray, const Corners& corners) override {
     Ops ops = make_();
-    ops.init(Colour(gray), BoundingBox(corners));
+    ops.init(Colour(gray), BoxRect(corners));
     trackers_[id] = std::move(ops);
   }
 
@@ -189,12 +184,6 @@ double Median(std::vector<double> v) {
   return 0.5 * (hi + *std::max_element(v.begin(), v.begin() + m));
 }
 
-double BoxIou(const cv::Rect2d& a, const cv::Rect2d& b) {
-  const double inter = (a & b).area();
-  const double uni = a.area() + b.area() - inter;
-  return uni > 0.0 ? inter / uni : 0.0;
-}
-
 struct Score {
   int scored = 0;                 // fully visible frames after the start frame
   int ok_2px = 0;                 // of which all 4 corners within 2 px
@@ -255,7 +244,9 @@ ClipScore RunClip(Candidate* cand, const Source& source, const std::vector<Corne
         }
         s.corner_px.push_back(sum / 4.0);
         if (worst <= 2.0) ++s.ok_2px;
-        if (BoxIou(BoundingBox(rep->second), BoundingBox(truth->second.corners)) >= 0.5) ++s.ok_iou;
+        if (frontend::BoxIou(frontend::BoundingBox(rep->second),
+                             frontend::BoundingBox(truth->second.corners)) >= 0.5)
+          ++s.ok_iou;
       }
     }
     for (int id : ids) {

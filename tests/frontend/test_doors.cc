@@ -20,34 +20,13 @@
 #include "fsp/frontend/draw.h"
 #include "fsp/frontend/image_io.h"
 #include "fsp/frontend/rect_detector.h"
+#include "fsp/frontend/rect_geometry.h"
 #include "test_util.h"
 
 namespace fsp::frontend {
 namespace {
 
-struct Box {
-  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-  double Area() const { return std::max(0.0, x1 - x0) * std::max(0.0, y1 - y0); }
-};
-
-double Iou(const Box& a, const Box& b) {
-  const Box i{std::max(a.x0, b.x0), std::max(a.y0, b.y0), std::min(a.x1, b.x1),
-              std::min(a.y1, b.y1)};
-  const double inter = i.Area();
-  const double uni = a.Area() + b.Area() - inter;
-  return uni > 0 ? inter / uni : 0.0;
-}
-
-Box BoxOf(const Corners& c) {
-  Box b{c[0].x(), c[0].y(), c[0].x(), c[0].y()};
-  for (const Vec2& p : c) {
-    b.x0 = std::min(b.x0, p.x());
-    b.y0 = std::min(b.y0, p.y());
-    b.x1 = std::max(b.x1, p.x());
-    b.y1 = std::max(b.y1, p.y());
-  }
-  return b;
-}
+using Box = Eigen::AlignedBox2d;
 
 // The door box (class 0) of a YOLO label file, in pixels of a W x H image.
 bool ReadDoorBox(const std::string& path, int w, int h, Box* box) {
@@ -58,7 +37,8 @@ bool ReadDoorBox(const std::string& path, int w, int h, Box* box) {
     int cls = -1;
     double cx = 0, cy = 0, bw = 0, bh = 0;
     if (!(is >> cls >> cx >> cy >> bw >> bh) || cls != 0) continue;
-    *box = Box{(cx - bw / 2) * w, (cy - bh / 2) * h, (cx + bw / 2) * w, (cy + bh / 2) * h};
+    *box =
+        Box(Vec2((cx - bw / 2) * w, (cy - bh / 2) * h), Vec2((cx + bw / 2) * w, (cy + bh / 2) * h));
     return true;
   }
   return false;
@@ -137,7 +117,7 @@ TEST(RealPhotos, DoorsDevSet) {
     const auto res = det.Detect(gray);
     double best = 0;
     for (const Detection& d : res.detections)
-      best = std::max(best, Iou(BoxOf(d.corners_px), truth));
+      best = std::max(best, BoxIou(BoundingBox(d.corners_px), truth));
     const bool ok = best >= 0.6;
     const int n = static_cast<int>(res.detections.size());
     const int extra = n - (ok ? 1 : 0);
@@ -176,8 +156,9 @@ TEST(RealPhotos, DoorsDevSet) {
     }
     if (!draw.empty()) {
       cv::Mat img = DrawDetections(gray, res.detections);
-      cv::rectangle(img, cv::Point2d(truth.x0, truth.y0), cv::Point2d(truth.x1, truth.y1),
-                    cv::Scalar(255, 0, 255), std::max(1, gray.cols / 400));
+      cv::rectangle(img, cv::Point2d(truth.min().x(), truth.min().y()),
+                    cv::Point2d(truth.max().x(), truth.max().y()), cv::Scalar(255, 0, 255),
+                    std::max(1, gray.cols / 400));
       const double s = 800.0 / std::max(img.cols, img.rows);
       if (s < 1) cv::resize(img, img, cv::Size(), s, s, cv::INTER_AREA);
       cv::imwrite(draw + "/" + stem + ".png", img);

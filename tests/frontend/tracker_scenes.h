@@ -21,6 +21,7 @@
 #include "fsp/common/median.h"
 #include "fsp/common/types.h"
 #include "fsp/frontend/object_tracker.h"
+#include "fsp/frontend/rect_geometry.h"
 #include "synthetic.h"
 #include "test_util.h"
 
@@ -110,16 +111,7 @@ inline cv::Mat Render(const cv::Mat& bg, const std::vector<Thing>& things, uint3
   constexpr int kS = 4;
   cv::Mat f = bg.clone();
   for (const Thing& t : things) {
-    double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
-    for (const Vec2& c : t.corners) {
-      x0 = std::min(x0, c.x());
-      y0 = std::min(y0, c.y());
-      x1 = std::max(x1, c.x());
-      y1 = std::max(y1, c.y());
-    }
-    const cv::Rect box = cv::Rect(cv::Point(static_cast<int>(x0) - 2, static_cast<int>(y0) - 2),
-                                  cv::Point(static_cast<int>(x1) + 3, static_cast<int>(y1) + 3)) &
-                         cv::Rect(0, 0, kW, kH);
+    const cv::Rect box = PixelBox(BoundingBox(t.corners), 2.0, kW, kH);
     if (box.area() <= 0) continue;
     // Texture -> hi-res box: low-res pixel x maps to kS (x - box.x + 0.5) - 0.5.
     const cv::Mat H = H33(TexCorners(t.tex), t.corners);
@@ -176,14 +168,8 @@ inline bool FullyVisible(const Corners& c) {
 }
 
 inline bool Outside(const Corners& c) {  // wholly out of the image
-  double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
-  for (const Vec2& p : c) {
-    x0 = std::min(x0, p.x());
-    x1 = std::max(x1, p.x());
-    y0 = std::min(y0, p.y());
-    y1 = std::max(y1, p.y());
-  }
-  return x1 < 0 || y1 < 0 || x0 > kW - 1 || y0 > kH - 1;
+  const Eigen::AlignedBox2d b = BoundingBox(c);
+  return b.max().x() < 0 || b.max().y() < 0 || b.min().x() > kW - 1 || b.min().y() > kH - 1;
 }
 
 inline const TrackedObject* Find(const std::vector<TrackedObject>& r, int id) {

@@ -4,6 +4,9 @@
 
 #include <optional>
 
+#include <Eigen/Geometry>
+#include <opencv2/core/types.hpp>
+
 #include "fsp/common/camera.h"
 #include "fsp/common/geometry.h"
 #include "fsp/common/types.h"
@@ -69,5 +72,15 @@ double MeanCornerDistanceBestShift(const Corners& a, const Corners& b, int* best
 
 // Shortest side length in pixels.
 double ShortestSide(const Corners& c);
+
+// Axis-aligned bounding box of the corners.
+Eigen::AlignedBox2d BoundingBox(const Corners& c);
+
+// Intersection over union of two boxes (0 when both are empty).
+double BoxIou(const Eigen::AlignedBox2d& a, const Eigen::AlignedBox2d& b);
+
+// The pixels covering BOX grown by MARGIN on every side (outwards to whole pixels), clipped to a
+// COLS x ROWS image.
+cv::Rect PixelBox(const Eigen::AlignedBox2d& box, double margin, int cols, int rows);
 
 }  // namespace fsp::frontend
