@@ -104,6 +104,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.faults.max_gyro_bias", &e.faults.max_gyro_bias, kPositive},
       {"estimator.faults.max_acc_bias", &e.faults.max_acc_bias, kPositive},
       {"estimator.faults.max_jump_m", &e.faults.max_jump_m, kPositive},
+      {"estimator.faults.max_view_error_px", &e.faults.max_view_error_px, kPositive},
       {"estimator.faults.restart_velocity_sigma", &e.faults.restart_velocity_sigma, kPositive},
       {"estimator.faults.restart_roll_pitch_sigma", &e.faults.restart_roll_pitch_sigma, kPositive},
       {"estimator.static_init.window_s", &e.static_init.window_s, kPositive},

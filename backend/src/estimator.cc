@@ -29,12 +29,20 @@
 #include "fsp/common/time.h"
 
 namespace fsp::backend {
+namespace {
+
+// Global solves rejected in a row before the estimator restarts (AddFrame). One may be a passing
+// disagreement (a loop's object far from where the window has it); two in a row, 5 keyframes
+// apart, are a session the history cannot follow.
+constexpr int kGlobalRejectionsToRestart = 2;
+
+}  // namespace
 
 bool FaultOptions::Check(std::string* why) const {
   const bool ok = max_imu_gap_s > 0.0 && gap_max_acc > 0.0 && gap_max_rate > 0.0 &&
                   frame_gap_s > 0.0 && blind_s > 0.0 && max_speed > 0.0 && max_gyro_bias > 0.0 &&
-                  max_acc_bias > 0.0 && max_jump_m > 0.0 && restart_velocity_sigma > 0.0 &&
-                  restart_roll_pitch_sigma > 0.0;
+                  max_acc_bias > 0.0 && max_jump_m > 0.0 && max_view_error_px > 0.0 &&
+                  restart_velocity_sigma > 0.0 && restart_roll_pitch_sigma > 0.0;
   if (why) *why = ok ? "" : "every fault threshold and sigma must be > 0";
   return ok;
 }
@@ -347,6 +355,14 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
       if (!job && (loop_pending || keyframes_since_global >= options.global.every_keyframes))
         StartGlobal();
       if (job && summary.keyframes >= job->apply_at) ApplyGlobal();
+      // Global solves that diverge again and again (the whole history cannot be made consistent
+      // with the window's states, e.g. after a corrupted IMU burst the window absorbed): the
+      // session is broken, as when the window's own solve diverges.
+      if (global_rejected_in_row >= kGlobalRejectionsToRestart) {
+        global_rejected_in_row = 0;
+        ++summary.divergences;
+        Restart(global_rejected_why);
+      }
     }
     SolveWindow(options.window_max_iterations);
     const auto in_window = [this] {

@@ -163,8 +163,11 @@ void Estimator::Impl::ApplyGlobal() {
   if (!j->diverged.empty()) {
     Warn(keyframes.back()->state.t_ns,
          "divergence in a global solve (" + j->diverged + "): its result was rejected");
+    ++global_rejected_in_row;
+    global_rejected_why = "two global solves in a row: " + j->diverged;
     return;
   }
+  global_rejected_in_row = 0;
   const size_t n = j->kfs.size();
   const Rigid3 correction =
       j->kfs[n - 1]->state.T_W_B() * keyframes[n - 1]->state.T_W_B().Inverse();

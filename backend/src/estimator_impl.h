@@ -419,8 +419,12 @@ struct Estimator::Impl {
   // Why a solve's result is implausible (empty when it is not): the solver failed, a state is not
   // finite, a speed or bias beyond FaultOptions' bounds, a keyframe moved further than max_jump_m.
   std::string Diverged(const ceres::Solver::Summary& s, const Snapshot& before) const {
-    return Diverged(s, before, keyframes);
+    const std::string why = Diverged(s, before, keyframes);
+    return why.empty() ? ViewsDiverged() : why;
   }
+  // The newest frame's whole views of objects in the map, at least two, all further than
+  // FaultOptions::max_view_error_px from the estimate's prediction: why (else empty).
+  std::string ViewsDiverged() const;
   std::string Diverged(const ceres::Solver::Summary& s, const Snapshot& before,
                        const Keyframes& kfs) const;
 
@@ -542,6 +546,9 @@ struct Estimator::Impl {
     std::thread thread;
   };
   std::unique_ptr<GlobalJob> job;
+  // Global solves rejected in a row, and why the last was (ApplyGlobal).
+  int global_rejected_in_row = 0;
+  std::string global_rejected_why;
 
   // Copies every keyframe (not a newest frame that is no keyframe: it is dropped later) and object
   // and solves them, on a thread with `background`, else here.
@@ -550,7 +557,8 @@ struct Estimator::Impl {
   // Applies the global solve in flight (waiting for it): the keyframes it solved take its values,
   // the ones added since move rigidly with the newest of them, objects take its values (expressed
   // at their current anchor when they were re-anchored meanwhile); objects retired meanwhile and
-  // objects new since are left as they are (the new ones move with their anchors).
+  // objects new since are left as they are (the new ones move with their anchors). A diverged solve
+  // is rejected; AddFrame restarts the estimator after two in a row.
   void ApplyGlobal();
 
   // A restart drops the global solve in flight (its states belong to the session that diverged).

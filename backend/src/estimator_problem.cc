@@ -136,6 +136,24 @@ std::string Estimator::Impl::Diverged(const ceres::Solver::Summary& s, const Sna
   return "";
 }
 
+std::string Estimator::Impl::ViewsDiverged() const {
+  const Keyframe& kf = *keyframes.back();
+  int views = 0;
+  double least = std::numeric_limits<double>::infinity();
+  for (const ObjectObservation& o : kf.observations) {
+    const auto it = objects.find(o.object_id);
+    if (!o.Complete() || it == objects.end()) continue;
+    const std::optional<double> e = PredictionError(*it->second, CameraPose(kf), o.corners);
+    ++views;
+    least = std::min(least, e ? *e : std::numeric_limits<double>::infinity());
+  }
+  if (views < 2 || least <= options.faults.max_view_error_px) return "";
+  char buf[128];
+  std::snprintf(buf, sizeof(buf), "the %d objects in view %.3g px or more from their prediction",
+                views, least);
+  return buf;
+}
+
 ceres::CostFunction* Estimator::Impl::MakeZeroVelocityPrior(const Keyframe& kf) const {
   Eigen::Matrix<double, 9, 1> still, sigma;
   still << Vec3::Zero(), kf.state.gyro_bias(), kf.state.acc_bias();

@@ -75,12 +75,16 @@ struct FaultOptions {
   double blind_s = 2.0;
   // Divergence: a solve that fails, leaves a non-finite state, a speed above max_speed [m/s], a
   // bias above max_gyro_bias [rad/s] / max_acc_bias [m/s^2], or moves a keyframe further than
-  // max_jump_m [m] is rejected (the states before it are restored) and the estimator restarts a
-  // new session at the newest frame.
+  // max_jump_m [m] (or max_view_error_px, below) is rejected (the states before it are restored)
+  // and the estimator restarts a new session at the newest frame.
   double max_speed = 30.0;
   double max_gyro_bias = 1.0;
   double max_acc_bias = 2.0;
   double max_jump_m = 5.0;
+  // ...or leaves every object in view of the newest frame (at least two, whole views of objects in
+  // the map) further than this from where it puts them [RMS px]: the solve follows the IMU against
+  // the camera (a corrupted IMU burst, whose speed the robust loss lets the views not contradict).
+  double max_view_error_px = 50.0;
   // A restarted session's priors: velocity σ around the last plausible velocity [m/s], roll and
   // pitch σ [rad].
   double restart_velocity_sigma = 1.0;
@@ -113,8 +117,10 @@ struct GlobalOptions {
   // when keyframe k + apply_after_keyframes arrives (earlier when a loop needs the map): keyframes
   // in the solve take its values, the ones added since move rigidly with the newest of them
   // (OKVIS2's synchronisation). With `background` the solve runs on its own thread meanwhile;
-  // without, inside AddFrame of keyframe k. Both give the same output, byte for byte.
-  int apply_after_keyframes = 5;
+  // without, inside AddFrame of keyframe k. Both give the same output, byte for byte. 1 (stop 27;
+  // 5 before): the window takes the global solution one keyframe later instead of five, at the cost
+  // of waiting for it when it is not done (backend/README.md, "Schedule").
+  int apply_after_keyframes = 1;
   bool background = true;
   // The global solves during the run hold every keyframe older than the newest
   // max_free_keyframes at its estimate, except the keyframes since a loop's object was last seen
@@ -172,8 +178,8 @@ struct EstimatorOptions {
   EstimatorMode mode = EstimatorMode::kWindow;
   LandmarkType landmarks = LandmarkType::kFsp;
   // Keyframes in the sliding window. Longer: more parallax for inverse depth and better scale, more
-  // CPU per frame (roughly linear).
-  int window_size = 20;
+  // CPU per frame (roughly linear). 30 since stop 27 (20 before; backend/README.md, "Schedule").
+  int window_size = 30;
   // Window mode: a frame becomes a keyframe when this much time passed since the last keyframe, or
   // when it sees an object that is new (or back after leaving the window) [s]. Other frames are
   // solved with the window (their pose is reported) and then dropped. Longer: the window spans more
