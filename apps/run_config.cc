@@ -82,6 +82,8 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.global.function_tolerance", &e.global.function_tolerance, Range{0.0, true, 1.0}},
       {"estimator.global.boundary", &e.global.boundary, kAny},
       {"estimator.global.apply_after_keyframes", &e.global.apply_after_keyframes, kNonNegative},
+      {"estimator.global.apply_after_per_keyframes", &e.global.apply_after_per_keyframes,
+       kNonNegative},
       {"estimator.global.background", &e.global.background, kAny},
       {"estimator.global.max_free_keyframes", &e.global.max_free_keyframes, kNonNegative},
       {"estimator.global.loop_direct_px", &e.global.loop_direct_px, kNonNegative},

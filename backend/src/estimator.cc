@@ -50,13 +50,14 @@ bool FaultOptions::Check(std::string* why) const {
 bool GlobalOptions::Check(std::string* why) const {
   const bool ok = every_keyframes >= 1 && max_iterations >= 1 && final_iterations >= 1 &&
                   function_tolerance > 0.0 && function_tolerance <= 1.0 &&
-                  apply_after_keyframes >= 0 && max_free_keyframes >= 0 && loop_direct_px >= 0.0 &&
+                  apply_after_keyframes >= 0 && apply_after_per_keyframes >= 0 &&
+                  max_free_keyframes >= 0 && loop_direct_px >= 0.0 &&
                   loop_accept_px >= loop_direct_px && budget_m >= 0.0 && budget_per_m >= 0.0 &&
                   budget_blind_acc >= 0.0 && budget_yaw_deg >= 0.0 && budget_yaw_per_m >= 0.0;
   if (why)
     *why = ok ? ""
               : "every_keyframes and the iterations must be >= 1; 0 < function_tolerance <= 1; "
-                "apply_after_keyframes, "
+                "apply_after_keyframes, apply_after_per_keyframes, "
                 "max_free_keyframes and the budgets >= 0; 0 <= loop_direct_px <= loop_accept_px";
   return ok;
 }

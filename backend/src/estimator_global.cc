@@ -125,7 +125,10 @@ void Estimator::Impl::StartGlobal() {
     j->originals[id] = obj.get();
     j->objs[id] = std::move(c);
   }
-  j->apply_at = summary.keyframes + options.global.apply_after_keyframes;
+  const GlobalOptions& go = options.global;
+  j->apply_at =
+      summary.keyframes + go.apply_after_keyframes +
+      (go.apply_after_per_keyframes > 0 ? static_cast<int>(n) / go.apply_after_per_keyframes : 0);
   // The free part: the newest max_free_keyframes, and every keyframe since a closed loop's object
   // was last seen.
   const int max_free = options.global.max_free_keyframes;

@@ -118,9 +118,14 @@ struct GlobalOptions {
   // in the solve take its values, the ones added since move rigidly with the newest of them
   // (OKVIS2's synchronisation). With `background` the solve runs on its own thread meanwhile;
   // without, inside AddFrame of keyframe k. Both give the same output, byte for byte. 1 (stop 27;
-  // 5 before): the window takes the global solution one keyframe later instead of five, at the cost
-  // of waiting for it when it is not done (backend/README.md, "Schedule").
+  // 5 before): the window takes the global solution one keyframe later instead of five, and waits
+  // for it when it is not done (backend/README.md, "Schedule")...
   int apply_after_keyframes = 1;
+  // ...plus one keyframe per this many keyframes in the solve: a solve's cost grows with the
+  // keyframes it holds, and the window should not wait for it (a 10-minute flight's per-frame time
+  // grew 1.65x with a fixed lag of 1). Deterministic: a function of the problem, not of the clock.
+  // 0: the lag is apply_after_keyframes alone.
+  int apply_after_per_keyframes = 500;
   bool background = true;
   // The global solves during the run hold every keyframe older than the newest
   // max_free_keyframes at its estimate, except the keyframes since a loop's object was last seen
