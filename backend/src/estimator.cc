@@ -32,7 +32,7 @@ namespace fsp::backend {
 namespace {
 
 // Global solves rejected in a row before the estimator restarts (AddFrame). One may be a passing
-// disagreement (a loop's object far from where the window has it); two in a row, 5 keyframes
+// disagreement (a loop's object far from where the window has it); two in a row, a global step
 // apart, are a session the history cannot follow.
 constexpr int kGlobalRejectionsToRestart = 2;
 

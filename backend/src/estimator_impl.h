@@ -417,7 +417,8 @@ struct Estimator::Impl {
   }
 
   // Why a solve's result is implausible (empty when it is not): the solver failed, a state is not
-  // finite, a speed or bias beyond FaultOptions' bounds, a keyframe moved further than max_jump_m.
+  // finite, a speed or bias beyond FaultOptions' bounds, a keyframe moved further than max_jump_m;
+  // for the window's and the batch's solves also the newest frame's views (ViewsDiverged).
   std::string Diverged(const ceres::Solver::Summary& s, const Snapshot& before) const {
     const std::string why = Diverged(s, before, keyframes);
     return why.empty() ? ViewsDiverged() : why;

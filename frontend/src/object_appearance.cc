@@ -141,7 +141,7 @@ void ObjectTracker::Impl::AlignToReference(const Object& ob, const std::vector<c
                                            Mat3* H) const {
   cv::Mat patch, valid;
   Warp(ob, levels, *H, &patch, &valid);
-  cv::Mat mask = valid & ob.ref_valid;
+  const cv::Mat mask = valid & ob.ref_valid;
   const cv::Mat ref = Normalised(ob.ref, mask);
   Corners c = CornersOf(ob, *H);
   double perim = 0.0;
