@@ -161,11 +161,11 @@ TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
 }
 
 // Motion blur (20 ms shutter: median 6 px, p90 17 px of smear on the poster). Measured: success
-// 366/409 (0.895; 300/409 before the tracker's blur test, `tracker.blur_sharpness_ratio`, kept the
+// 365/409 (0.892; 300/409 before the tracker's blur test, `tracker.blur_sharpness_ratio`, kept the
 // keypoint homography and refused detections' corrections while the poster's sides are smeared;
 // 342/409 before the blurred frames' alignment to the reference, `tracker.blur_align_*`, held the
 // poster through 1 s of zoom under blur, where the flow had drifted 2-6 px), no box out of view,
-// every return re-identified, 0 id switches. The misses: the fast turns (27 of the 43, on the 31
+// every return re-identified, 0 id switches. The misses: the fast turns (27 of the 44, on the 31
 // frames that move the corners by over 50 px), the tag lost for its 0.9 s dash.
 TEST(PixelsEndToEnd, TrackingClipMotionBlur) {
   const fs::path clip = RenderedClip("clip_blur");
