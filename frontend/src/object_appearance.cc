@@ -49,6 +49,15 @@ std::vector<cv::Mat> ObjectTracker::Impl::Levels(const std::vector<cv::Mat>& pyr
   return lv;
 }
 
+// Image pixels per patch pixel of the object seen through H: its perimeter in the image over its
+// perimeter in the patch.
+double ObjectTracker::Impl::PatchScale(const Object& ob, const Mat3& H) const {
+  const Corners c = CornersOf(ob, H);
+  double perim = 0.0;
+  for (int i = 0; i < 4; ++i) perim += (c[(i + 1) % 4] - c[i]).norm();
+  return perim / (2.0 * (ob.w + ob.h));
+}
+
 // The frame warped into the patch through H (object plane -> undistorted px): CV_32F patch and
 // a validity mask; the pyramid level is chosen so that one patch pixel covers about one level
 // pixel (no aliasing when the object is large). Returns the fraction of patch pixels in view.
@@ -57,11 +66,7 @@ double ObjectTracker::Impl::Warp(const Object& ob, const std::vector<cv::Mat>& l
   const int pw = ob.w + 2 * ob.mx, ph = ob.h + 2 * ob.my;
   patch->create(ph, pw, CV_32F);
   valid->create(ph, pw, CV_8U);
-  Corners img;
-  for (int i = 0; i < 4; ++i) img[i] = Apply(H, ob.obj_corners[i]);
-  double perim = 0.0;
-  for (int i = 0; i < 4; ++i) perim += (img[(i + 1) % 4] - img[i]).norm();
-  const double scale = perim / (2.0 * (ob.w + ob.h));
+  const double scale = PatchScale(ob, H);
   int level = scale > 1.0 ? static_cast<int>(std::floor(std::log2(scale))) : 0;
   level = std::clamp(level, 0, static_cast<int>(levels.size()) - 1);
   const double f = 1.0 / (1 << level);
@@ -144,10 +149,8 @@ void ObjectTracker::Impl::AlignToReference(const Object& ob, const std::vector<c
   const cv::Mat mask = valid & ob.ref_valid;
   const cv::Mat ref = Normalised(ob.ref, mask);
   Corners c = CornersOf(ob, *H);
-  double perim = 0.0;
-  for (int i = 0; i < 4; ++i) perim += (c[(i + 1) % 4] - c[i]).norm();
   // Difference step: a quarter of the image pixels per patch pixel, at least half a pixel.
-  const double step = std::max(0.5, 0.25 * perim / (2.0 * (ob.w + ob.h)));
+  const double step = std::max(0.5, 0.25 * PatchScale(ob, *H));
   auto residual = [&](const Corners& q, cv::Mat* r) {
     Mat3 Hq;
     if (!HomographyFrom4(ob.obj_corners, q, &Hq)) return false;
@@ -156,8 +159,7 @@ void ObjectTracker::Impl::AlignToReference(const Object& ob, const std::vector<c
     *r = Normalised(pq, mask) - ref;
     return true;
   };
-  cv::Mat r0;
-  if (!residual(c, &r0)) return;
+  cv::Mat r0 = Normalised(patch, mask) - ref;  // at H itself: the warp above
   double cost = r0.dot(r0);
   for (int it = 0; it < 5; ++it) {
     std::array<cv::Mat, 8> J;  // numeric, per corner coordinate

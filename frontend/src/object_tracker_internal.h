@@ -122,6 +122,7 @@ struct ObjectTracker::Impl {
   // Direct alignment of the frame to the reference patch: H moved (Gauss-Newton on the quad's
   // corners, normalised residuals) so that the warped frame matches the reference best.
   void AlignToReference(const Object& ob, const std::vector<cv::Mat>& levels, Mat3* H) const;
+  double PatchScale(const Object& ob, const Mat3& H) const;
   double Warp(const Object& ob, const std::vector<cv::Mat>& levels, const Mat3& H, cv::Mat* patch,
               cv::Mat* valid) const;
   static double Ncc(const cv::Mat& a, const cv::Mat& va, const cv::Mat& b, const cv::Mat& vb);
