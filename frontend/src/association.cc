@@ -39,6 +39,26 @@ bool FrontEnd::Impl::AwayFromBorder(const Detection& d, const FrontEndOptions& o
   return true;
 }
 
+bool FrontEnd::Impl::SideAlongBorder(const Detection& d, const FrontEndOptions& o) const {
+  const double m = o.border_margin_px;
+  auto near = [&](const Vec2& c, int border) {
+    switch (border) {
+      case 0:
+        return c.x() < m;
+      case 1:
+        return c.y() < m;
+      case 2:
+        return c.x() > camera.width - 1 - m;
+      default:
+        return c.y() > camera.height - 1 - m;
+    }
+  };
+  for (int i = 0; i < 4; ++i)
+    for (int border = 0; border < 4; ++border)
+      if (near(d.corners_px[i], border) && near(d.corners_px[(i + 1) % 4], border)) return true;
+  return false;
+}
+
 // A dormant object that detection D is a view of, with the corner order that fits it; -1 if none.
 int FrontEnd::Impl::Reidentify(const cv::Mat& gray, const Detection& d,
                                const FramePrediction& prediction, const FrontEndOptions& o,
@@ -181,7 +201,8 @@ void FrontEnd::Impl::MatchTracks(const std::vector<Detection>& dets, std::vector
     const Detection& d = dets[p.det];
     if (ReidentifyAtConfirmation(p.id, d, w)) continue;
     Vote(objects[p.id], d, w);
-    if (AwayFromBorder(d, w->o)) Correct(p.id, d, w);
+    if (AwayFromBorder(d, w->o) || (!w->edge_fitted.count(p.id) && !SideAlongBorder(d, w->o)))
+      Correct(p.id, d, w);
   }
 }
 

@@ -173,6 +173,7 @@ bool FrontEnd::Impl::TrackAll(FrameWork* w) {
       if (!t.in_view) w->out_of_view[t.id] = t.seen;  // partly in view
       w->score[t.id] = t.score;
       if (t.blurred) w->blurred.insert(t.id);
+      if (t.edge_refined) w->edge_fitted.insert(t.id);
       continue;
     }
     info.active = false;

@@ -97,6 +97,7 @@ struct FrontEnd::Impl {
     // Tracked corners reported with keypoint_sigma_px: not fitted to the edges (or smeared), or
     // still since the previous frame (FrontEndOptions::edge_sigma_min_motion_px).
     std::set<int> coarse;
+    std::set<int> edge_fitted;  // tracked with corners fitted to the edges in this frame
   };
 
   // frontend.cc
@@ -114,6 +115,9 @@ struct FrontEnd::Impl {
 
   // association.cc
   bool AwayFromBorder(const Detection& d, const FrontEndOptions& o) const;
+  // Whether two neighbouring corners of D lie within border_margin_px of the same image border:
+  // that side may be an inner edge closing an object cut off by the border.
+  bool SideAlongBorder(const Detection& d, const FrontEndOptions& o) const;
   int Reidentify(const cv::Mat& gray, const Detection& d, const FramePrediction& prediction,
                  const FrontEndOptions& o, Corners* corners) const;
   void AssociateTags(const std::vector<Detection>& dets, std::vector<bool>* used, FrameWork* w);

@@ -152,7 +152,11 @@ struct FrontEndOptions {
   // depth from its vibration). 0: never.
   double edge_sigma_min_motion_px = 0.5;
   // ...unless a corner of the detection lies within this of the image border [px]: there the
-  // detector may have closed the quad with an inner edge (the object's side just out of view).
+  // detector may have closed the quad with an inner edge (the object's side just out of view). Such
+  // a detection still corrects a track whose corners were not fitted to the edges in this frame
+  // when none of its sides runs along the border (two neighbouring corners within this of the same
+  // border): a poster whose corner touches the top of the frame after a fast move, tracked 8 px off
+  // by its keypoints alone, is put back.
   double border_margin_px = 8.0;
   // A decoded AprilTag matched to its live track puts the track onto the tag's corners the same way
   // (more than correct_px off; the decoder's corners are exact, the border does not matter).
