@@ -143,11 +143,12 @@ double ObjectTracker::Impl::Appearance(const Object& ob, const std::vector<cv::M
 }
 
 void ObjectTracker::Impl::AlignToReference(const Object& ob, const std::vector<cv::Mat>& levels,
-                                           Mat3* H) const {
+                                           const cv::Mat& target, const cv::Mat& target_valid,
+                                           bool shift_only, Mat3* H) const {
   cv::Mat patch, valid;
   Warp(ob, levels, *H, &patch, &valid);
-  const cv::Mat mask = valid & ob.ref_valid;
-  const cv::Mat ref = Normalised(ob.ref, mask);
+  const cv::Mat mask = valid & target_valid;
+  const cv::Mat ref = Normalised(target, mask);
   Corners c = CornersOf(ob, *H);
   // Difference step: a quarter of the image pixels per patch pixel, at least half a pixel.
   const double step = std::max(0.5, 0.25 * PatchScale(ob, *H));
@@ -161,26 +162,32 @@ void ObjectTracker::Impl::AlignToReference(const Object& ob, const std::vector<c
   };
   cv::Mat r0 = Normalised(patch, mask) - ref;  // at H itself: the warp above
   double cost = r0.dot(r0);
+  // Parameter k moves corner coordinate k, or with `shift_only` coordinate k of every corner.
+  const int n = shift_only ? 2 : 8;
+  auto moved = [&](const Corners& from, int k, double by) {
+    Corners q = from;
+    for (int i = 0; i < 4; ++i)
+      if (shift_only || i == k / 2) q[i][k % 2] += by;
+    return q;
+  };
   for (int it = 0; it < 5; ++it) {
-    std::array<cv::Mat, 8> J;  // numeric, per corner coordinate
-    for (int k = 0; k < 8; ++k) {
-      Corners q = c;
-      q[k / 2][k % 2] += step;
+    std::array<cv::Mat, 8> J;  // numeric, per parameter
+    for (int k = 0; k < n; ++k) {
       cv::Mat rk;
-      if (!residual(q, &rk)) return;
+      if (!residual(moved(c, shift_only ? k : k, step), &rk)) return;
       J[k] = (rk - r0) / step;
     }
-    Eigen::Matrix<double, 8, 8> JtJ;
-    Eigen::Matrix<double, 8, 1> Jtr;
-    for (int a = 0; a < 8; ++a) {
+    Eigen::MatrixXd JtJ(n, n);
+    Eigen::VectorXd Jtr(n);
+    for (int a = 0; a < n; ++a) {
       Jtr(a) = J[a].dot(r0);
-      for (int b = a; b < 8; ++b) JtJ(a, b) = JtJ(b, a) = J[a].dot(J[b]);
+      for (int b = a; b < n; ++b) JtJ(a, b) = JtJ(b, a) = J[a].dot(J[b]);
     }
     JtJ.diagonal() *= 1.0 + 1e-3;  // a little damping: a corner may be poorly determined
-    const Eigen::Matrix<double, 8, 1> d = -JtJ.ldlt().solve(Jtr);
+    const Eigen::VectorXd d = -JtJ.ldlt().solve(Jtr);
     if (!d.allFinite() || d.norm() > 20.0 * step) break;
     Corners q = c;
-    for (int k = 0; k < 8; ++k) q[k / 2][k % 2] += d(k);
+    for (int k = 0; k < n; ++k) q = moved(q, k, d(k));
     cv::Mat rq;
     if (!residual(q, &rq) || rq.dot(rq) >= cost) break;
     c = q;
@@ -190,6 +197,45 @@ void ObjectTracker::Impl::AlignToReference(const Object& ob, const std::vector<c
   }
   Mat3 Hc;
   if (HomographyFrom4(ob.obj_corners, c, &Hc)) *H = Hc;
+}
+
+// The blurred frame is the mean of the sharp ones over the exposure: through H0 the frame shows
+// at patch pixel q the mean over the exposure's instants s of ref(T H_s^-1 H0 T^-1 q), H_s the
+// homography of the corners c0 + s MOTION and T the patch's offset (object plane -> patch pixel).
+// One instant per patch pixel of the smear.
+void ObjectTracker::Impl::SmearedReference(const Object& ob, const Mat3& H0, const Corners& motion,
+                                           double exposure, cv::Mat* smeared,
+                                           cv::Mat* valid) const {
+  const Corners c0 = CornersOf(ob, H0);
+  double longest = 0.0;
+  for (const Vec2& m : motion) longest = std::max(longest, m.norm());
+  const int n =
+      std::clamp(static_cast<int>(std::ceil(exposure * longest / PatchScale(ob, H0))) + 1, 2, 64);
+  Mat3 T = Mat3::Identity();
+  T(0, 2) = ob.mx;
+  T(1, 2) = ob.my;
+  cv::Mat sum = cv::Mat::zeros(ob.ref.size(), CV_32F), warped, warped_valid;
+  *valid = ob.ref_valid.clone();
+  int used = 0;
+  for (int k = 0; k < n; ++k) {
+    const double s = exposure * ((k + 0.5) / n - 0.5);
+    Corners c;
+    for (int i = 0; i < 4; ++i) c[i] = c0[i] + s * motion[i];
+    Mat3 Hs;
+    if (!HomographyFrom4(ob.obj_corners, c, &Hs)) continue;
+    const Mat3 M = T * Hs.inverse() * H0 * T.inverse();
+    cv::Mat Mcv(3, 3, CV_64F);
+    for (int r = 0; r < 3; ++r)
+      for (int q = 0; q < 3; ++q) Mcv.at<double>(r, q) = M(r, q);
+    cv::warpPerspective(ob.ref, warped, Mcv, ob.ref.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                        cv::BORDER_REPLICATE);
+    cv::warpPerspective(ob.ref_valid, warped_valid, Mcv, ob.ref.size(),
+                        cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT, 0);
+    sum += warped;
+    *valid &= warped_valid;
+    ++used;
+  }
+  *smeared = used > 0 ? cv::Mat(sum / used) : ob.ref.clone();
 }
 
 // The object part of the patch without its outer 15 % (away from the outline).

@@ -14,15 +14,6 @@
 #include "object_tracker_internal.h"
 
 namespace fsp::frontend {
-namespace {
-
-double MaxCornerDistance(const Corners& a, const Corners& b) {
-  double d = 0.0;
-  for (int i = 0; i < 4; ++i) d = std::max(d, (a[i] - b[i]).norm());
-  return d;
-}
-
-}  // namespace
 
 using object_tracker_internal::Apply;
 using object_tracker_internal::HomographyFrom4;
@@ -220,9 +211,52 @@ bool ObjectTracker::Impl::AlignBlurred(const Object& ob, const std::vector<cv::M
   double visible = 0.0;
   if (Appearance(ob, levels, *H_final, &visible) < o.blur_align_min_appearance) return false;
   Mat3 H = *H_final;
-  AlignToReference(ob, levels, &H);
+  AlignToReference(ob, levels, ob.ref, ob.ref_valid, false, &H);
   const Corners c = CornersOf(ob, H);
   if (MaxCornerDistance(c, *final_corners) > o.blur_align_max_shift_px) return false;
+  *final_corners = c;
+  *H_final = H;
+  return true;
+}
+
+double ObjectTracker::Impl::AlignSmeared(const Object& ob, const std::vector<cv::Mat>& levels,
+                                         const Corners& motion, bool shift_only, Mat3* H) const {
+  // The exposure's share of the frame interval: the one whose smear matches best at the start.
+  cv::Mat patch, valid;
+  Warp(ob, levels, *H, &patch, &valid);
+  cv::Mat target, target_valid;
+  double best = -2.0;
+  for (const double exposure : {0.25, 0.5, 0.75, 1.0}) {
+    cv::Mat smeared, smeared_valid;
+    SmearedReference(ob, *H, motion, exposure, &smeared, &smeared_valid);
+    const double score = Ncc(smeared, smeared_valid, patch, valid);
+    if (score > best) {
+      best = score;
+      target = smeared;
+      target_valid = smeared_valid;
+    }
+  }
+  AlignToReference(ob, levels, target, target_valid, shift_only, H);
+  Warp(ob, levels, *H, &patch, &valid);
+  return Ncc(target, target_valid, patch, valid);
+}
+
+// An object the keypoints lost in a fast move, looked for at its prediction (fast_align_*).
+bool ObjectTracker::Impl::AlignFastMotion(const Object& ob, const std::vector<cv::Mat>& levels,
+                                          const Mat3& H_pred, Corners* final_corners, Mat3* H_final,
+                                          double* ncc) const {
+  if (o.fast_align_min_motion_px <= 0.0) return false;
+  const Corners pred = CornersOf(ob, H_pred), last = CornersOf(ob, ob.H);
+  if (MaxCornerDistance(pred, last) < o.fast_align_min_motion_px) return false;
+  Corners motion;
+  for (int i = 0; i < 4; ++i) motion[i] = pred[i] - last[i];
+  // One shift of the predicted quad: in a smear of tens of pixels the shape is poorly seen, and
+  // the prediction (the last quad turned by the gyroscope's rotation) has it.
+  Mat3 H = H_pred;
+  *ncc = AlignSmeared(ob, levels, motion, true, &H);
+  const Corners c = CornersOf(ob, H);
+  if (MaxCornerDistance(c, pred) > o.fast_align_max_shift_px || *ncc < o.fast_align_min_ncc)
+    return false;
   *final_corners = c;
   *H_final = H;
   return true;
@@ -275,7 +309,7 @@ void ObjectTracker::Impl::Advance(Object* ob, const cv::Mat& gray, const Tracked
   // homography fixed by the edges or the reference, or by the flow alone for an object without a
   // known outline.
   const bool confident =
-      t.appearance >= o.refresh_appearance &&
+      !t.fast && t.appearance >= o.refresh_appearance &&
       (t.edge_refined || t.aligned || (!outline_known && strong && !t.recovered));
   if (confident && (ob->frames_since_refresh >= o.refresh_every ||
                     2 * static_cast<int>(ob->pt_obj.size()) < ob->seeded)) {
@@ -315,6 +349,11 @@ TrackedObject ObjectTracker::Impl::TrackOne(Object* ob, const cv::Mat& gray,
   if (!lost) {
     t.appearance = Appearance(*ob, levels, H_final, &visible);
     lost = visible < o.min_visible || t.appearance < o.min_appearance;
+  }
+  if (lost && AlignFastMotion(*ob, levels, H_pred, &final_corners, &H_final, &t.appearance)) {
+    Appearance(*ob, levels, H_final, &visible);
+    lost = visible < o.min_visible;
+    t.fast = t.blurred = !lost;
   }
   if (lost) {
     ob->active = false;

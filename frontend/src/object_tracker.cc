@@ -71,6 +71,10 @@ bool ObjectTrackerOptions::Check(std::string* why) const {
   if (!(blur_align_min_appearance >= 0.0 && blur_align_min_appearance <= 1.0))
     return fail("blur_align_min_appearance must be in [0, 1]");
   if (!(blur_align_max_shift_px > 0.0)) return fail("blur_align_max_shift_px must be > 0");
+  if (!(fast_align_min_motion_px >= 0.0)) return fail("fast_align_min_motion_px must be >= 0");
+  if (!(fast_align_max_shift_px > 0.0)) return fail("fast_align_max_shift_px must be > 0");
+  if (!(fast_align_min_ncc >= 0.0 && fast_align_min_ncc <= 1.0))
+    return fail("fast_align_min_ncc must be in [0, 1]");
   if (!(min_appearance >= -1.0 && min_appearance <= 1.0))
     return fail("min_appearance must be in [-1, 1]");
   if (!(min_visible > 0.0 && min_visible <= 1.0)) return fail("min_visible must be in (0, 1]");

@@ -121,7 +121,16 @@ struct ObjectTracker::Impl {
   static std::vector<cv::Mat> Levels(const std::vector<cv::Mat>& pyr, bool with_derivatives);
   // Direct alignment of the frame to the reference patch: H moved (Gauss-Newton on the quad's
   // corners, normalised residuals) so that the warped frame matches the reference best.
-  void AlignToReference(const Object& ob, const std::vector<cv::Mat>& levels, Mat3* H) const;
+  // Gauss-Newton on the 8 corner coordinates of H (with SHIFT_ONLY on one image shift of all
+  // four): the frame warped through H matched to TARGET (the reference patch, or a smeared copy of
+  // it) where TARGET_VALID, both normalised.
+  void AlignToReference(const Object& ob, const std::vector<cv::Mat>& levels, const cv::Mat& target,
+                        const cv::Mat& target_valid, bool shift_only, Mat3* H) const;
+  // The reference patch as the frame shows it through H0 when its corners move by MOTION (per
+  // corner, over one frame interval) during an exposure of `exposure` frame intervals, and where
+  // that is known (every instant within the reference patch).
+  void SmearedReference(const Object& ob, const Mat3& H0, const Corners& motion, double exposure,
+                        cv::Mat* smeared, cv::Mat* valid) const;
   double PatchScale(const Object& ob, const Mat3& H) const;
   double Warp(const Object& ob, const std::vector<cv::Mat>& levels, const Mat3& H, cv::Mat* patch,
               cv::Mat* valid) const;
@@ -145,6 +154,12 @@ struct ObjectTracker::Impl {
                      Corners* final_corners, Mat3* H_final, bool* blurred);
   bool AlignBlurred(const Object& ob, const std::vector<cv::Mat>& levels, Corners* final_corners,
                     Mat3* H_final) const;
+  // H aligned to the reference smeared by MOTION (per corner over a frame interval) with the
+  // exposure that fits best at H; returns the NCC of frame and smeared reference there.
+  double AlignSmeared(const Object& ob, const std::vector<cv::Mat>& levels, const Corners& motion,
+                      bool shift_only, Mat3* H) const;
+  bool AlignFastMotion(const Object& ob, const std::vector<cv::Mat>& levels, const Mat3& H_pred,
+                       Corners* final_corners, Mat3* H_final, double* ncc) const;
   void Advance(Object* ob, const cv::Mat& gray, const TrackedObject& t, const Correspondences& c,
                const Mat3& H_final, bool strong) const;
   TrackedObject TrackOne(Object* ob, const cv::Mat& gray, const std::vector<cv::Mat>& levels,

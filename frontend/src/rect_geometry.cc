@@ -145,6 +145,12 @@ double CornerDistanceBestShift(const Corners& a, const Corners& b, int* best_shi
   return best;
 }
 
+double MaxCornerDistance(const Corners& a, const Corners& b) {
+  double d = 0.0;
+  for (int i = 0; i < 4; ++i) d = std::max(d, (a[i] - b[i]).norm());
+  return d;
+}
+
 double MeanCornerDistanceBestShift(const Corners& a, const Corners& b, int* best_shift) {
   double best = std::numeric_limits<double>::infinity();
   for (int s = 0; s < 4; ++s) {

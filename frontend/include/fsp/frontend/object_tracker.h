@@ -115,6 +115,17 @@ struct ObjectTrackerOptions {
   // The alignment is kept only when it moves no corner further than this [px] (a jump is the
   // alignment finding another optimum, not the flow's drift).
   double blur_align_max_shift_px = 5.0;
+  // Fast motion: an object the keypoints lose while its predicted corners move at least
+  // `fast_align_min_motion_px` since the previous frame (a fast turn smears it over tens of pixels,
+  // where neither the flow nor the sharp reference can follow) is looked for at the prediction: the
+  // reference patch smeared along the predicted motion (the exposure's share of the frame interval
+  // taken from 0.25 / 0.5 / 0.75 / 1, whichever matches best) is aligned to the frame from there.
+  // It is kept when no corner moves further than `fast_align_max_shift_px` and the smeared
+  // reference then matches the frame by `fast_align_min_ncc`. The gyroscope's prediction of a
+  // rotation is good to a pixel, but translation is not in it. 0 (min motion): off.
+  double fast_align_min_motion_px = 15.0;
+  double fast_align_max_shift_px = 5.0;
+  double fast_align_min_ncc = 0.9;
   // --- appearance check ---
   // Appearance check: least normalised cross-correlation between the reference patch and the frame
   // warped into it through the tracked homography [-1, 1]. Measured on synthetic sequences: right
@@ -145,8 +156,9 @@ struct TrackedObject {
   bool edge_refined = false;    // corners came from the edge refinement
   bool blurred = false;         // its sides are smeared in this frame (blur_sharpness_ratio)
   bool aligned = false;         // corners from the alignment to the reference (blur_align_*)
-  double appearance = 0.0;      // NCC of the appearance check
-  double score = 0.0;           // confidence in [0, 1]
+  bool fast = false;        // lost by the keypoints in a fast move, found by the smeared reference
+  double appearance = 0.0;  // NCC of the appearance check
+  double score = 0.0;       // confidence in [0, 1]
 };
 
 class ObjectTracker {

@@ -69,6 +69,8 @@ double CornerDistanceBestShift(const Corners& a, const Corners& b, int* best_shi
 // Mean distance between corresponding corners after the best cyclic shift: 1/4 sum ||a_j -
 // b_{(j+s) mod 4}||, minimised over s (orientation kept).
 double MeanCornerDistanceBestShift(const Corners& a, const Corners& b, int* best_shift = nullptr);
+// Largest distance between corresponding corners (same order).
+double MaxCornerDistance(const Corners& a, const Corners& b);
 
 // Shortest side length in pixels.
 double ShortestSide(const Corners& c);
