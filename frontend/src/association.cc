@@ -314,10 +314,20 @@ void FrontEnd::Impl::ReacquirePredicted(FrameWork* w) {
     for (const auto& [lid, lc] : w->from_detection)
       on_live = on_live || InsideConvex(lc, Centroid(pc)) || InsideConvex(pc, Centroid(lc));
     if (on_live) continue;
+    // Its motion since the previous frame as the gyroscope's rotation moves it: in a fast turn the
+    // tracker looks for it by its smeared reference instead of on edges.
+    std::optional<Corners> motion;
+    if (w->prediction.R_Cprev_Ccur) {
+      const Corners before = RotateCorners(pc, K, w->prediction.R_Cprev_Ccur->transpose());
+      motion.emplace();
+      for (int i = 0; i < 4; ++i) (*motion)[i] = pc[i] - before[i];
+    }
     Corners corners;
     double similarity = -1.0;
+    bool smeared = false;
     const bool refined =
-        tracker.Reacquire(id, w->gray, pc, &corners, &similarity) &&
+        tracker.Reacquire(id, w->gray, pc, &corners, &similarity, motion ? &*motion : nullptr,
+                          &smeared) &&
         MeanCornerDistanceBestShift(pc, corners) <= o.reid_gate_frac * ShortestSide(pc);
     if (!refined) {
       // No edges where it is predicted (a thin frame blurred into one edge of the other polarity
@@ -334,6 +344,10 @@ void FrontEnd::Impl::ReacquirePredicted(FrameWork* w) {
     info.active = true;
     info.last = corners;
     if (refined) w->from_detection[id] = corners;
+    if (refined && smeared) {  // found in its smear: not fitted to edges
+      w->coarse.insert(id);
+      w->blurred.insert(id);
+    }
     w->score[id] = similarity;
   }
 }

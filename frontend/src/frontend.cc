@@ -62,8 +62,6 @@ bool FrontEndOptions::Check(std::string* why) const {
   return true;
 }
 
-namespace {
-
 // x_cur ~ K R_Ccur_Cprev K^-1 x_prev: where a pixel of the previous frame appears after a pure
 // rotation of the camera (the infinite homography; exact for distant points, a prediction for near
 // ones).
@@ -76,8 +74,6 @@ Corners RotateCorners(const Corners& c, const Mat3& K, const Mat3& R_Cprev_Ccur)
   }
   return out;
 }
-
-}  // namespace
 
 // AprilTag decoding of the tag-like rectangles: the crop around each is given to the AprilTag
 // detector, and a decoded tag whose corners match the rectangle's replaces it (with its id and
@@ -257,7 +253,7 @@ void FrontEnd::Impl::Emit(int64_t t_ns, FrameWork* w) {
       obs.object_class = info.Class();
       obs.corners = c;
       obs.score = w->score[id];
-      obs.sigma_px = by_track && w->coarse.count(id) ? w->o.keypoint_sigma_px : w->o.edge_sigma_px;
+      obs.sigma_px = w->coarse.count(id) ? w->o.keypoint_sigma_px : w->o.edge_sigma_px;
       w->result.observations.push_back(obs);
     }
   std::sort(w->result.observations.begin(), w->result.observations.end(),

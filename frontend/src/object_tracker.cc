@@ -353,12 +353,34 @@ std::vector<TrackedObject> ObjectTracker::Track(const cv::Mat& gray,
 }
 
 bool ObjectTracker::Reacquire(int id, const cv::Mat& gray, const Corners& predicted,
-                              Corners* corners, double* similarity) {
+                              Corners* corners, double* similarity, const Corners* motion,
+                              bool* smeared) {
   impl_->CheckFrame(gray);
+  if (smeared) *smeared = false;
   const auto it = impl_->objects.find(id);
   if (it == impl_->objects.end() || !IsConvex(predicted)) return false;
   for (const Vec2& c : predicted)
     if (!impl_->camera.InImage(impl_->ToDistorted(c))) return false;
+  Mat3 H_pred;
+  if (motion && impl_->o.fast_align_min_motion_px > 0.0 &&
+      HomographyFrom4(it->second.obj_corners, predicted, &H_pred)) {
+    Corners before;
+    for (int i = 0; i < 4; ++i) before[i] = predicted[i] - (*motion)[i];
+    if (MaxCornerDistance(predicted, before) >= impl_->o.fast_align_min_motion_px) {
+      std::vector<cv::Mat> levels;
+      cv::buildPyramid(gray, levels, 4);
+      Mat3 H = H_pred;
+      const double ncc = impl_->AlignSmeared(it->second, levels, *motion, true, &H);
+      const Corners c = impl_->CornersOf(it->second, H);
+      if (MaxCornerDistance(c, predicted) <= impl_->o.fast_align_max_shift_px &&
+          ncc >= impl_->o.fast_align_min_ncc) {
+        *corners = c;
+        *similarity = ncc;
+        if (smeared) *smeared = true;
+        return true;
+      }
+    }
+  }
   EdgeRefinement e;
   if (!impl_->Refine(it->second, gray, predicted, true, &e)) return false;
   *corners = e.corners_undistorted;

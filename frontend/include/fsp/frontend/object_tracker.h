@@ -195,9 +195,13 @@ class ObjectTracker {
   // coarse pass, then the fine one, with the side polarities learnt at Start: the detector's
   // refinement) into `corners`, and the appearance check there (as Similarity) into `similarity`.
   // Returns false for an unknown id, a quad not wholly in the image, or edges not found. Used to
-  // pick up a returning object the detector does not report (too small, say).
+  // pick up a returning object the detector does not report (too small, say). With `motion` (the
+  // predicted corners' motion since the previous frame) of at least fast_align_min_motion_px, the
+  // object is first looked for as in a fast move (fast_align_*: its reference smeared along the
+  // motion, `similarity` then the smeared reference's NCC, and `smeared` true), and on the edges
+  // when not found so.
   bool Reacquire(int id, const cv::Mat& gray, const Corners& predicted, Corners* corners,
-                 double* similarity);
+                 double* similarity, const Corners* motion = nullptr, bool* smeared = nullptr);
 
   // Makes a dormant (or active) object active again at `corners` in `gray` (the frame last given to
   // Track), keeping its model (re-identification). Returns false for an unknown id.
