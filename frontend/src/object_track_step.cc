@@ -185,9 +185,8 @@ bool ObjectTracker::Impl::RefineOnEdges(Object* ob, const cv::Mat& gray, const C
   const bool coarse = !strong || recovered;
   const double max_shift = recovered ? o.coarse_search_px : o.max_refine_shift_px;
   // A smeared outline is not where the object is, the flow's homography is (the flow follows the
-  // smeared texture's centre); a plain object has no other measurement than its edges.
-  *blurred =
-      o.blur_sharpness_ratio > 0.0 && strong && outline_known && Smeared(ob, gray, kp_corners);
+  // smeared texture's centre); without a trusted homography nothing is (see AlignFastMotion).
+  *blurred = o.blur_sharpness_ratio > 0.0 && outline_known && Smeared(ob, gray, kp_corners);
   bool edge_refined = false;
   if (!*blurred && (!strong || outline_known) && Refine(*ob, gray, kp_corners, coarse, &e) &&
       (!strong || MaxCornerDistance(e.corners_undistorted, kp_corners) <= max_shift)) {

@@ -161,22 +161,24 @@ TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
 }
 
 // Motion blur (20 ms shutter: median 6 px, p90 17 px of smear on the poster). Measured: success
-// 377/409 (0.922; 368 before an object lost in a fast move was looked for at its prediction by its
-// smeared reference, `tracker.fast_align_*`; 365 before a detection with a corner at the image
+// 381/409 (0.932; 377 before the blur test also kept a weakly held object off its smeared edges at
+// the start of a turn; 368 before an object lost in a fast move was looked for at its prediction by
+// its smeared reference, `tracker.fast_align_*`; 365 before a detection with a corner at the image
 // border could correct a track its edges had not fitted; 300/409 before the tracker's blur test,
 // `tracker.blur_sharpness_ratio`, kept the keypoint homography and refused detections' corrections
 // while the poster's sides are smeared; 342/409 before the blurred frames' alignment to the
 // reference, `tracker.blur_align_*`, held the poster through 1 s of zoom under blur, where the flow
 // had drifted 2-6 px), no box out of view, every return re-identified, 0 id switches. The misses
-// (32): the starts of the fast turns (the keypoints hold the objects 4-8 px off, and the fast
-// frames carry that on), the tag lost for its 0.9 s dash, the poster after it.
+// (28): the poster during and after the dash (reported 6-15 px off in 7 frames), the tag lost for
+// its 0.9 s dash, a poster held 8-11 px off at the start of the last turn, objects coming back in a
+// turn at 120-190 px per frame (smears longer than the object).
 TEST(PixelsEndToEnd, TrackingClipMotionBlur) {
   const fs::path clip = RenderedClip("clip_blur");
   const RunResult r = RunAndEvaluate(clip.string(), test::ScratchDir() / "run", clip);
   ASSERT_TRUE(r.metrics.frontend && r.metrics.frontend->success_rate);
   const eval::FrontendMetrics& f = *r.metrics.frontend;
   PrintTracking("blur", f);
-  EXPECT_GE(*f.success_rate, 0.9);
+  EXPECT_GE(*f.success_rate, 0.91);
   EXPECT_LE(f.corner_err_px.median, 0.5);
   EXPECT_EQ(f.boxes_out_of_view, 0u);
   EXPECT_EQ(f.reidentified, f.returns);

@@ -101,8 +101,10 @@ struct ObjectTrackerOptions {
   // contrast (a thin frame thinning with the view, its outer edge fading into its inner one) keeps
   // the step of its other edge. The object is then blurred in that frame: a trusted keypoint
   // homography keeps its corners (the flow follows the smeared texture's centre) and a detection
-  // does not correct the track. A plain object (no trusted homography) still follows its edges.
-  // 0: off.
+  // does not correct the track. Without a trusted homography (few keypoints agree: a plain object,
+  // or the first frame of a fast turn) the smeared edges are not used either (at the start of the
+  // blur clip's turns they put the corners 3-8 px off): the object is looked for as in a fast move
+  // (fast_align_*) or lost, and found again once the motion slows. 0: off.
   double blur_sharpness_ratio = 0.5;
   // In a blurred frame the flow drifts (the smear changes the texture it follows, frame after
   // frame: a poster through 1 s of zoom under blur drifted 2 -> 6 px). Its homography is then
