@@ -26,6 +26,7 @@ namespace fsp::frontend {
 // Where corners C of the previous frame appear after the camera turned by R_Cprev_Ccur (the
 // infinite homography K R_Ccur_Cprev K^-1).
 Corners RotateCorners(const Corners& c, const Mat3& K, const Mat3& R_Cprev_Ccur);
+
 namespace frontend_internal {
 
 struct ObjectInfo {

@@ -174,7 +174,7 @@ void ObjectTracker::Impl::AlignToReference(const Object& ob, const std::vector<c
     std::array<cv::Mat, 8> J;  // numeric, per parameter
     for (int k = 0; k < n; ++k) {
       cv::Mat rk;
-      if (!residual(moved(c, shift_only ? k : k, step), &rk)) return;
+      if (!residual(moved(c, k, step), &rk)) return;
       J[k] = (rk - r0) / step;
     }
     Eigen::MatrixXd JtJ(n, n);
