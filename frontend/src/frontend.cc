@@ -253,7 +253,9 @@ void FrontEnd::Impl::Emit(int64_t t_ns, FrameWork* w) {
       obs.object_class = info.Class();
       obs.corners = c;
       obs.score = w->score[id];
-      obs.sigma_px = w->coarse.count(id) ? w->o.keypoint_sigma_px : w->o.edge_sigma_px;
+      // Coarse: tracked without fitted edges, or re-acquired in its smear (ReacquirePredicted).
+      const bool coarse = w->coarse.count(id) && (by_track || w->blurred.count(id));
+      obs.sigma_px = coarse ? w->o.keypoint_sigma_px : w->o.edge_sigma_px;
       w->result.observations.push_back(obs);
     }
   std::sort(w->result.observations.begin(), w->result.observations.end(),
