@@ -209,8 +209,8 @@ void ObjectTracker::Impl::SmearedReference(const Object& ob, const Mat3& H0, con
   const Corners c0 = CornersOf(ob, H0);
   double longest = 0.0;
   for (const Vec2& m : motion) longest = std::max(longest, m.norm());
-  const int n =
-      std::clamp(static_cast<int>(std::ceil(exposure * longest / PatchScale(ob, H0))) + 1, 2, 64);
+  const double smear = exposure * longest / std::max(PatchScale(ob, H0), 1e-6);  // patch px
+  const int n = static_cast<int>(std::clamp(std::ceil(smear) + 1.0, 2.0, 64.0));
   Mat3 T = Mat3::Identity();
   T(0, 2) = ob.mx;
   T(1, 2) = ob.my;
