@@ -28,34 +28,25 @@ Vec2 Centroid(const Corners& c) {
 
 }  // namespace
 
+// The image borders (bits: left, top, right, bottom) that corner C lies within `border_margin_px`
+// of.
+int FrontEnd::Impl::NearBorders(const Vec2& c, const FrontEndOptions& o) const {
+  const double m = o.border_margin_px;
+  return (c.x() < m ? 1 : 0) | (c.y() < m ? 2 : 0) | (c.x() > camera.width - 1 - m ? 4 : 0) |
+         (c.y() > camera.height - 1 - m ? 8 : 0);
+}
+
 // Whether every corner of D is at least `border_margin_px` inside the image: near the border the
 // detector may have closed the quad with an inner edge (the object's own side just out of view).
 bool FrontEnd::Impl::AwayFromBorder(const Detection& d, const FrontEndOptions& o) const {
   for (const Vec2& c : d.corners_px)
-    if (c.x() < o.border_margin_px || c.y() < o.border_margin_px ||
-        c.x() > camera.width - 1 - o.border_margin_px ||
-        c.y() > camera.height - 1 - o.border_margin_px)
-      return false;
+    if (NearBorders(c, o)) return false;
   return true;
 }
 
 bool FrontEnd::Impl::SideAlongBorder(const Detection& d, const FrontEndOptions& o) const {
-  const double m = o.border_margin_px;
-  auto near = [&](const Vec2& c, int border) {
-    switch (border) {
-      case 0:
-        return c.x() < m;
-      case 1:
-        return c.y() < m;
-      case 2:
-        return c.x() > camera.width - 1 - m;
-      default:
-        return c.y() > camera.height - 1 - m;
-    }
-  };
   for (int i = 0; i < 4; ++i)
-    for (int border = 0; border < 4; ++border)
-      if (near(d.corners_px[i], border) && near(d.corners_px[(i + 1) % 4], border)) return true;
+    if (NearBorders(d.corners_px[i], o) & NearBorders(d.corners_px[(i + 1) % 4], o)) return true;
   return false;
 }
 

@@ -119,6 +119,7 @@ struct FrontEnd::Impl {
   void Emit(int64_t t_ns, FrameWork* w);
 
   // association.cc
+  int NearBorders(const Vec2& c, const FrontEndOptions& o) const;
   bool AwayFromBorder(const Detection& d, const FrontEndOptions& o) const;
   // Whether two neighbouring corners of D lie within border_margin_px of the same image border:
   // that side may be an inner edge closing an object cut off by the border.

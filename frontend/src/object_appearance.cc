@@ -49,6 +49,12 @@ std::vector<cv::Mat> ObjectTracker::Impl::Levels(const std::vector<cv::Mat>& pyr
   return lv;
 }
 
+std::vector<cv::Mat> ObjectTracker::Impl::AppearanceLevels(const cv::Mat& gray) {
+  std::vector<cv::Mat> levels;
+  cv::buildPyramid(gray, levels, 4);
+  return levels;
+}
+
 // Image pixels per patch pixel of the object seen through H: its perimeter in the image over its
 // perimeter in the patch.
 double ObjectTracker::Impl::PatchScale(const Object& ob, const Mat3& H) const {
@@ -275,10 +281,8 @@ std::optional<double> ObjectTracker::Similarity(int id, const cv::Mat& gray,
   const Impl::Object& ob = it->second;
   Mat3 H;
   if (!IsConvex(corners) || !HomographyFrom4(ob.obj_corners, corners, &H)) return -1.0;
-  std::vector<cv::Mat> levels;
-  cv::buildPyramid(gray, levels, 4);
   double visible = 0.0;
-  const double ncc = impl_->Appearance(ob, levels, H, &visible);
+  const double ncc = impl_->Appearance(ob, Impl::AppearanceLevels(gray), H, &visible);
   // As in Track: an object mostly out of view has no appearance to compare (-1).
   return visible >= impl_->o.min_visible ? ncc : -1.0;
 }

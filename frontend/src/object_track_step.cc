@@ -218,16 +218,22 @@ bool ObjectTracker::Impl::AlignBlurred(const Object& ob, const std::vector<cv::M
   return true;
 }
 
-double ObjectTracker::Impl::AlignSmeared(const Object& ob, const std::vector<cv::Mat>& levels,
-                                         const Corners& motion, bool shift_only, Mat3* H) const {
+// An object the keypoints lost in a fast move, looked for at its prediction (fast_align_*).
+bool ObjectTracker::Impl::AlignFastMotion(const Object& ob, const std::vector<cv::Mat>& levels,
+                                          const Mat3& H_pred, const Corners& motion,
+                                          Corners* final_corners, Mat3* H_final, double* ncc,
+                                          double* visible) const {
+  double longest = 0.0;
+  for (const Vec2& m : motion) longest = std::max(longest, m.norm());
+  if (o.fast_align_min_motion_px <= 0.0 || longest < o.fast_align_min_motion_px) return false;
   // The exposure's share of the frame interval: the one whose smear matches best at the start.
   cv::Mat patch, valid;
-  Warp(ob, levels, *H, &patch, &valid);
+  Warp(ob, levels, H_pred, &patch, &valid);
   cv::Mat target, target_valid;
   double best = -2.0;
   for (const double exposure : {0.25, 0.5, 0.75, 1.0}) {
     cv::Mat smeared, smeared_valid;
-    SmearedReference(ob, *H, motion, exposure, &smeared, &smeared_valid);
+    SmearedReference(ob, H_pred, motion, exposure, &smeared, &smeared_valid);
     const double score = Ncc(smeared, smeared_valid, patch, valid);
     if (score > best) {
       best = score;
@@ -235,29 +241,19 @@ double ObjectTracker::Impl::AlignSmeared(const Object& ob, const std::vector<cv:
       target_valid = smeared_valid;
     }
   }
-  AlignToReference(ob, levels, target, target_valid, shift_only, H);
-  Warp(ob, levels, *H, &patch, &valid);
-  return Ncc(target, target_valid, patch, valid);
-}
-
-// An object the keypoints lost in a fast move, looked for at its prediction (fast_align_*).
-bool ObjectTracker::Impl::AlignFastMotion(const Object& ob, const std::vector<cv::Mat>& levels,
-                                          const Mat3& H_pred, Corners* final_corners, Mat3* H_final,
-                                          double* ncc) const {
-  if (o.fast_align_min_motion_px <= 0.0) return false;
-  const Corners pred = CornersOf(ob, H_pred), last = CornersOf(ob, ob.H);
-  if (MaxCornerDistance(pred, last) < o.fast_align_min_motion_px) return false;
-  Corners motion;
-  for (int i = 0; i < 4; ++i) motion[i] = pred[i] - last[i];
   // One shift of the predicted quad: in a smear of tens of pixels the shape is poorly seen, and
   // the prediction (the last quad turned by the gyroscope's rotation) has it.
   Mat3 H = H_pred;
-  *ncc = AlignSmeared(ob, levels, motion, true, &H);
+  AlignToReference(ob, levels, target, target_valid, true, &H);
   const Corners c = CornersOf(ob, H);
-  if (MaxCornerDistance(c, pred) > o.fast_align_max_shift_px || *ncc < o.fast_align_min_ncc)
+  const double in_view = Warp(ob, levels, H, &patch, &valid);
+  *ncc = Ncc(target, target_valid, patch, valid);
+  if (MaxCornerDistance(c, CornersOf(ob, H_pred)) > o.fast_align_max_shift_px ||
+      *ncc < o.fast_align_min_ncc)
     return false;
   *final_corners = c;
   *H_final = H;
+  *visible = in_view;
   return true;
 }
 
@@ -349,10 +345,15 @@ TrackedObject ObjectTracker::Impl::TrackOne(Object* ob, const cv::Mat& gray,
     t.appearance = Appearance(*ob, levels, H_final, &visible);
     lost = visible < o.min_visible || t.appearance < o.min_appearance;
   }
-  if (lost && AlignFastMotion(*ob, levels, H_pred, &final_corners, &H_final, &t.appearance)) {
-    Appearance(*ob, levels, H_final, &visible);
-    lost = visible < o.min_visible;
-    t.fast = t.blurred = !lost;
+  if (lost) {
+    const Corners pred = CornersOf(*ob, H_pred), last = CornersOf(*ob, ob->H);
+    Corners motion;
+    for (int i = 0; i < 4; ++i) motion[i] = pred[i] - last[i];
+    if (AlignFastMotion(*ob, levels, H_pred, motion, &final_corners, &H_final, &t.appearance,
+                        &visible)) {
+      lost = visible < o.min_visible;
+      t.fast = t.blurred = !lost;
+    }
   }
   if (lost) {
     ob->active = false;

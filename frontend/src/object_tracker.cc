@@ -294,9 +294,7 @@ bool ObjectTracker::Impl::Init(Object* ob, const cv::Mat& gray, const Corners& c
   ob->pt_img.clear();
   ob->frames_since_refresh = 0;
   if (build_model) {
-    std::vector<cv::Mat> levels;
-    cv::buildPyramid(gray, levels, 4);
-    Warp(*ob, levels, H, &ob->ref, &ob->ref_valid);
+    Warp(*ob, AppearanceLevels(gray), H, &ob->ref, &ob->ref_valid);
     cv::Scalar mean, sd;
     cv::meanStdDev(ob->ref(Interior(*ob)), mean, sd);
     ob->textured_interior = sd[0] >= 8.0;
@@ -361,25 +359,13 @@ bool ObjectTracker::Reacquire(int id, const cv::Mat& gray, const Corners& predic
   if (it == impl_->objects.end() || !IsConvex(predicted)) return false;
   for (const Vec2& c : predicted)
     if (!impl_->camera.InImage(impl_->ToDistorted(c))) return false;
-  Mat3 H_pred;
-  if (motion && impl_->o.fast_align_min_motion_px > 0.0 &&
-      HomographyFrom4(it->second.obj_corners, predicted, &H_pred)) {
-    Corners before;
-    for (int i = 0; i < 4; ++i) before[i] = predicted[i] - (*motion)[i];
-    if (MaxCornerDistance(predicted, before) >= impl_->o.fast_align_min_motion_px) {
-      std::vector<cv::Mat> levels;
-      cv::buildPyramid(gray, levels, 4);
-      Mat3 H = H_pred;
-      const double ncc = impl_->AlignSmeared(it->second, levels, *motion, true, &H);
-      const Corners c = impl_->CornersOf(it->second, H);
-      if (MaxCornerDistance(c, predicted) <= impl_->o.fast_align_max_shift_px &&
-          ncc >= impl_->o.fast_align_min_ncc) {
-        *corners = c;
-        *similarity = ncc;
-        if (smeared) *smeared = true;
-        return true;
-      }
-    }
+  Mat3 H_pred, H;
+  double visible = 0.0;
+  if (motion && HomographyFrom4(it->second.obj_corners, predicted, &H_pred) &&
+      impl_->AlignFastMotion(it->second, Impl::AppearanceLevels(gray), H_pred, *motion, corners, &H,
+                             similarity, &visible)) {
+    if (smeared) *smeared = true;
+    return true;
   }
   EdgeRefinement e;
   if (!impl_->Refine(it->second, gray, predicted, true, &e)) return false;

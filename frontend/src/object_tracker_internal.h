@@ -154,12 +154,16 @@ struct ObjectTracker::Impl {
                      Corners* final_corners, Mat3* H_final, bool* blurred);
   bool AlignBlurred(const Object& ob, const std::vector<cv::Mat>& levels, Corners* final_corners,
                     Mat3* H_final) const;
-  // H aligned to the reference smeared by MOTION (per corner over a frame interval) with the
-  // exposure that fits best at H; returns the NCC of frame and smeared reference there.
-  double AlignSmeared(const Object& ob, const std::vector<cv::Mat>& levels, const Corners& motion,
-                      bool shift_only, Mat3* H) const;
+  // fast_align_*: where the object is near H_pred when its corners moved by MOTION (per corner,
+  // over a frame interval) of at least fast_align_min_motion_px: H_pred shifted so that the frame
+  // matches the reference smeared by MOTION (with the exposure that fits best at H_pred). False
+  // when the motion is slower, the shift too large or the match too poor; else the corners,
+  // homography, NCC and fraction in view there.
   bool AlignFastMotion(const Object& ob, const std::vector<cv::Mat>& levels, const Mat3& H_pred,
-                       Corners* final_corners, Mat3* H_final, double* ncc) const;
+                       const Corners& motion, Corners* final_corners, Mat3* H_final, double* ncc,
+                       double* visible) const;
+  // The image levels the appearance model warps from (the frame and 3 halvings).
+  static std::vector<cv::Mat> AppearanceLevels(const cv::Mat& gray);
   void Advance(Object* ob, const cv::Mat& gray, const TrackedObject& t, const Correspondences& c,
                const Mat3& H_final, bool strong) const;
   TrackedObject TrackOne(Object* ob, const cv::Mat& gray, const std::vector<cv::Mat>& levels,
