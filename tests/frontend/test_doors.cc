@@ -172,12 +172,13 @@ TEST(RealPhotos, DoorsDevSet) {
       cv::imwrite(draw + "/" + stem + ".png", img);
     }
   }
-  std::printf("doors found %d/35, extras %d (%.2f per photo), mean %.1f ms\n", found, extras,
-              extras / 35.0, total_ms / 35);
-  // Pinned at what the detector reaches (31 / 35, 14 extras; 30 before lintels broken by an
-  // occluder were bridged); the issue asks for >= 90 % (32 / 35).
-  EXPECT_GE(found, 31);
-  EXPECT_LE(extras, 35);  // at most one other rectangle per photo on average
+  const double n_photos = static_cast<double>(names.size());
+  std::printf("doors found %d/%zu, extras %d (%.2f per photo), mean %.1f ms\n", found, names.size(),
+              extras, extras / n_photos, total_ms / n_photos);
+  // The issue's target, >= 90 % (32 / 35); reached with door_min_aspect 1.25 (31 with 1.6, 30
+  // before lintels broken by an occluder were bridged).
+  EXPECT_GE(found, 32);
+  EXPECT_LE(extras, static_cast<int>(names.size()));  // at most one other rectangle per photo
 }
 
 }  // namespace

@@ -278,7 +278,7 @@ struct RectDetectorOptions {
   // `uncalibrated_door_reach_failures_allowed` is used instead.
   int door_reach_failures_allowed = 0;
   int uncalibrated_door_reach_failures_allowed = 8;
-  double door_min_aspect = 1.6;
+  double door_min_aspect = 1.25;
   double door_max_aspect = 3.5;
   // A quad that passed only by the door rule or by a short end at any corner
   // (`reach_failures_any_corner`) and overlaps a quad that passed without it (or scores higher) by
