@@ -286,6 +286,7 @@ std::vector<Field> Fields(RunConfig& c) {
        kNonNegative},
       {"frontend.tracker.blur_align_max_shift_px", &f.tracker.blur_align_max_shift_px,
        kNonNegative},
+      {"frontend.tracker.blur_shape_from_prediction", &f.tracker.blur_shape_from_prediction, kAny},
       {"frontend.tracker.fast_align_min_motion_px", &f.tracker.fast_align_min_motion_px,
        kNonNegative},
       {"frontend.tracker.fast_align_max_shift_px", &f.tracker.fast_align_max_shift_px,

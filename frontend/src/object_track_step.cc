@@ -218,6 +218,50 @@ bool ObjectTracker::Impl::AlignBlurred(const Object& ob, const std::vector<cv::M
   return true;
 }
 
+// A blurred object whose alignment was refused (blur_shape_from_prediction): the prediction's
+// shape, scaled and shifted onto the flow.
+bool ObjectTracker::Impl::ShapeFromPrediction(const Object& ob, const std::vector<cv::Mat>& levels,
+                                              const Mat3& H_pred, const Correspondences& c,
+                                              Corners* final_corners, Mat3* H_final) const {
+  if (!o.blur_shape_from_prediction) return false;
+  // The correspondences the consensus holds, at the prediction (p) and as measured (m).
+  std::vector<Vec2> p, m;
+  const double r2 = o.ransac_px * o.ransac_px;
+  for (size_t k = 0; k < c.obj_pts.size(); ++k) {
+    const Vec2 X(c.obj_pts[k].x, c.obj_pts[k].y);
+    const Vec2 x(c.img_pts[k].x, c.img_pts[k].y);
+    if ((Apply(*H_final, X) - x).squaredNorm() > r2) continue;
+    p.push_back(Apply(H_pred, X));
+    m.push_back(x);
+  }
+  if (p.size() < 4) return false;
+  // Least squares of m = s (p - p̄) + m̄.
+  Vec2 p_mean = Vec2::Zero(), m_mean = Vec2::Zero();
+  for (size_t k = 0; k < p.size(); ++k) {
+    p_mean += p[k];
+    m_mean += m[k];
+  }
+  p_mean /= static_cast<double>(p.size());
+  m_mean /= static_cast<double>(p.size());
+  double num = 0.0, den = 0.0;
+  for (size_t k = 0; k < p.size(); ++k) {
+    num += (p[k] - p_mean).dot(m[k] - m_mean);
+    den += (p[k] - p_mean).squaredNorm();
+  }
+  if (!(den > 0.0)) return false;
+  const double s = num / den;
+  Mat3 S = Mat3::Identity();
+  S(0, 0) = S(1, 1) = s;
+  S.block<2, 1>(0, 2) = m_mean - s * p_mean;
+  const Mat3 H = S * H_pred;
+  double visible = 0.0;
+  if (Appearance(ob, levels, H, &visible) <= Appearance(ob, levels, *H_final, &visible))
+    return false;
+  *H_final = H;
+  *final_corners = CornersOf(ob, H);
+  return true;
+}
+
 // An object the keypoints lost in a fast move, looked for at its prediction (fast_align_*).
 bool ObjectTracker::Impl::AlignFastMotion(const Object& ob, const std::vector<cv::Mat>& levels,
                                           const Mat3& H_pred, const Corners& motion,
@@ -339,6 +383,8 @@ TrackedObject ObjectTracker::Impl::TrackOne(Object* ob, const cv::Mat& gray,
   Mat3 H_final;
   t.edge_refined = RefineOnEdges(ob, gray, k, t.recovered, &final_corners, &H_final, &t.blurred);
   if (t.blurred) t.aligned = AlignBlurred(*ob, levels, &final_corners, &H_final);
+  if (t.blurred && !t.aligned && strong)
+    ShapeFromPrediction(*ob, levels, H_pred, c, &final_corners, &H_final);
   bool lost = !strong && !t.edge_refined;
   double visible = 0.0;
   if (!lost) {

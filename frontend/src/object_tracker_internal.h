@@ -154,6 +154,11 @@ struct ObjectTracker::Impl {
                      Corners* final_corners, Mat3* H_final, bool* blurred);
   bool AlignBlurred(const Object& ob, const std::vector<cv::Mat>& levels, Corners* final_corners,
                     Mat3* H_final) const;
+  // blur_shape_from_prediction: H_pred moved by the scale and shift that map it onto the
+  // correspondences H_FINAL holds (within ransac_px); replaces H_FINAL and FINAL_CORNERS when it
+  // matches the reference better (returns true).
+  bool ShapeFromPrediction(const Object& ob, const std::vector<cv::Mat>& levels, const Mat3& H_pred,
+                           const Correspondences& c, Corners* final_corners, Mat3* H_final) const;
   // fast_align_*: where the object is near H_pred when its corners moved by MOTION (per corner,
   // over a frame interval) of at least fast_align_min_motion_px: H_pred shifted so that the frame
   // matches the reference smeared by MOTION (with the exposure that fits best at H_pred). False

@@ -117,6 +117,12 @@ struct ObjectTrackerOptions {
   // The alignment is kept only when it moves no corner further than this [px] (a jump is the
   // alignment finding another optimum, not the flow's drift).
   double blur_align_max_shift_px = 5.0;
+  // When that alignment is refused, the flow on the smear holds the homography's perspective and
+  // roll poorly (the blur clip's poster in a vertical dash: one corner 6-15 px off, the others
+  // within 2). The prediction (the last quad turned by the gyroscope's rotation) has the shape:
+  // it is scaled and shifted onto the flow's inliers (least squares) and replaces the flow's
+  // homography when it matches the reference better.
+  bool blur_shape_from_prediction = true;
   // Fast motion: an object the keypoints lose while its predicted corners move at least
   // `fast_align_min_motion_px` since the previous frame (a fast turn smears it over tens of pixels,
   // where neither the flow nor the sharp reference can follow) is looked for at the prediction: the
