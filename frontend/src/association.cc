@@ -298,12 +298,21 @@ void FrontEnd::Impl::ReacquirePredicted(FrameWork* w) {
   if (!o.reacquire_predicted || !w->prediction.map_known) return;
   for (const auto* predicted : PredictedDormant(w->prediction, o.border_margin_px)) {
     const auto& [id, pc] = *predicted;
-    // Not where a live object is (a nested outline, a look-alike tracked there).
+    // Not where a live object is (a nested outline, a look-alike tracked there). A plain candidate
+    // there is more likely this object coming back, seen anew (the blur clip's poster returning
+    // in a fast turn, started as a candidate on its smeared outline): it does not block the
+    // re-acquisition, and is dropped when the object resumes.
     bool on_live = false;
-    for (const auto& [lid, lc] : w->tracked)
-      on_live = on_live || InsideConvex(lc, Centroid(pc)) || InsideConvex(pc, Centroid(lc));
-    for (const auto& [lid, lc] : w->from_detection)
-      on_live = on_live || InsideConvex(lc, Centroid(pc)) || InsideConvex(pc, Centroid(lc));
+    std::set<int> candidates;
+    for (const std::map<int, Corners>* live : {&w->tracked, &w->from_detection})
+      for (const auto& [lid, lc] : *live) {
+        if (!InsideConvex(lc, Centroid(pc)) && !InsideConvex(pc, Centroid(lc))) continue;
+        const ObjectInfo& info = objects.at(lid);
+        if (o.reacquire_over_candidates && !info.confirmed && !info.is_tag)
+          candidates.insert(lid);
+        else
+          on_live = true;
+      }
     if (on_live) continue;
     // Its motion since the previous frame as the gyroscope's rotation moves it: in a fast turn the
     // tracker looks for it by its smeared reference instead of on edges.
@@ -331,6 +340,12 @@ void FrontEnd::Impl::ReacquirePredicted(FrameWork* w) {
     if (similarity < o.reid_min_similarity_predicted || !tracker.Resume(id, w->gray, corners))
       continue;
     ++w->result.reidentified;
+    for (const int cid : candidates) {
+      tracker.Drop(cid);
+      objects.erase(cid);
+      w->tracked.erase(cid);
+      w->from_detection.erase(cid);
+    }
     ObjectInfo& info = objects.at(id);
     info.active = true;
     info.last = corners;

@@ -132,6 +132,10 @@ struct FrontEndOptions {
   // the same bar, reporting from the next frame (the prediction is no measurement). A returning
   // object the detector does not report (a poster narrower than its minimum side) is picked up.
   bool reacquire_predicted = true;
+  // A plain candidate (not confirmed, not a tag) where such an object is predicted is that object
+  // seen anew more often than another object: it does not count as a live object there, and is
+  // dropped when the dormant object resumes.
+  bool reacquire_over_candidates = true;
   // A detection matched to a track whose corners differ from the track's by more than this (largest
   // corner distance) [px] replaces the track's corners (the tracker resumes from them, keeping its
   // model): the detector's corners are the better measurement, and a track that slid onto a nearby
