@@ -174,6 +174,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.reid_only_where_predicted", &f.reid_only_where_predicted, kAny},
       {"frontend.reacquire_predicted", &f.reacquire_predicted, kAny},
       {"frontend.reacquire_over_candidates", &f.reacquire_over_candidates, kAny},
+      {"frontend.relearn_outline_sharper", &f.relearn_outline_sharper, kNonNegative},
       {"frontend.correct_px", &f.correct_px, kNonNegative},
       {"frontend.edge_sigma_px", &f.edge_sigma_px, kNonNegative},
       {"frontend.keypoint_sigma_px", &f.keypoint_sigma_px, kNonNegative},

@@ -191,7 +191,17 @@ void FrontEnd::Impl::MatchTracks(const std::vector<Detection>& dets, std::vector
     track_matched.insert(p.id);
     const Detection& d = dets[p.det];
     if (ReidentifyAtConfirmation(p.id, d, w)) continue;
+    const bool was_confirmed = objects[p.id].confirmed;
     Vote(objects[p.id], d, w);
+    // Confirmed in a view clearly sharper than its first: its polarities are relearnt on the
+    // detection's outline (the track's may be off the edges it never found).
+    if (!was_confirmed && objects[p.id].confirmed && w->o.relearn_outline_sharper > 0.0 &&
+        !w->blurred.count(p.id)) {
+      int shift = 0;
+      MeanCornerDistanceBestShift(w->tracked[p.id], d.corners_undistorted, &shift);
+      tracker.RelearnOutline(p.id, w->gray, Shifted(d.corners_undistorted, shift),
+                             w->o.relearn_outline_sharper);
+    }
     if (AwayFromBorder(d, w->o) || (!w->edge_fitted.count(p.id) && !SideAlongBorder(d, w->o)))
       Correct(p.id, d, w);
   }

@@ -214,7 +214,9 @@ void ObjectTracker::Impl::SeedPoints(Object* ob, const cv::Mat& gray) const {
 
 // Refines `c` on the edges (coarse pass first when `coarse`); fills `out` on success.
 bool ObjectTracker::Impl::Refine(const Object& ob, const cv::Mat& gray, const Corners& c,
-                                 bool coarse, EdgeRefinement* out) {
+                                 bool coarse, EdgeRefinement* out,
+                                 const std::array<int, 4>* side_sign) {
+  const std::array<int, 4>& sign = side_sign ? *side_sign : ob.side_sign;
   const PinholeRadtan* cam = distorted ? &camera : nullptr;
   // The refinement reads the smoothed image only near the quad: smooth that region (a filter
   // on a sub-matrix reads the real neighbours outside it, so the values equal a whole-frame
@@ -228,12 +230,12 @@ bool ObjectTracker::Impl::Refine(const Object& ob, const cv::Mat& gray, const Co
     co.search_px = o.coarse_search_px;
     if (!smooth_near(start, co.search_px)) return false;
     const EdgeRefinement e =
-        RefineCornersOnEdges(smooth, cam, start, o.min_edge_gradient, co, ob.side_sign);
+        RefineCornersOnEdges(smooth, cam, start, o.min_edge_gradient, co, sign);
     if (!e.ok) return false;
     start = e.corners_undistorted;
   }
   if (!smooth_near(start, o.refine.search_px)) return false;
-  *out = RefineCornersOnEdges(smooth, cam, start, o.min_edge_gradient, o.refine, ob.side_sign);
+  *out = RefineCornersOnEdges(smooth, cam, start, o.min_edge_gradient, o.refine, sign);
   return out->ok && IsConvex(out->corners_undistorted);
 }
 
@@ -317,7 +319,8 @@ bool ObjectTracker::Impl::Init(Object* ob, const cv::Mat& gray, const Corners& c
     ob->side_sign = {0, 0, 0, 0};
     EdgeRefinement e;
     if (Refine(*ob, gray, corners, false, &e)) ob->side_sign = e.side_sign;
-    if (o.blur_sharpness_ratio > 0.0) ob->sharpness = SideSharpness(gray, corners);
+    ob->start_sharpness = SideSharpness(gray, corners);
+    if (o.blur_sharpness_ratio > 0.0) ob->sharpness = ob->start_sharpness;
   }
   SeedPoints(ob, gray);
   ob->seeded = static_cast<int>(ob->pt_obj.size());
@@ -382,6 +385,30 @@ bool ObjectTracker::Resume(int id, const cv::Mat& gray, const Corners& corners_u
   if (!impl_->Init(&ob, gray, corners_undistorted, false)) return false;
   impl_->SetPrevFrame(gray);
   it->second = std::move(ob);
+  return true;
+}
+
+bool ObjectTracker::RelearnOutline(int id, const cv::Mat& gray, const Corners& corners_undistorted,
+                                   double min_sharper) {
+  impl_->CheckFrame(gray);
+  const auto it = impl_->objects.find(id);
+  if (it == impl_->objects.end()) return false;
+  Impl::Object& ob = it->second;
+  const std::array<double, 4> now = impl_->SideSharpness(gray, corners_undistorted);
+  double sum_now = 0.0, sum_start = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    sum_now += now[i];
+    sum_start += ob.start_sharpness[i];
+  }
+  if (!(sum_now >= min_sharper * sum_start)) return false;
+  EdgeRefinement e;
+  const std::array<int, 4> any = {0, 0, 0, 0};
+  if (!impl_->Refine(ob, gray, corners_undistorted, false, &e, &any)) return false;
+  for (const int s : e.side_sign)
+    if (s == 0) return false;
+  ob.side_sign = e.side_sign;
+  ob.start_sharpness = now;
+  for (int i = 0; i < 4; ++i) ob.sharpness[i] = std::max(ob.sharpness[i], now[i]);
   return true;
 }
 

@@ -56,6 +56,8 @@ struct ObjectTracker::Impl {
     std::array<int, 4> side_sign = {0, 0, 0, 0};  // edge polarity per side, 0 = unknown
     // Per side, the sharpest view so far (SideSharpness, decaying; see blur_sharpness_ratio).
     std::array<double, 4> sharpness = {0.0, 0.0, 0.0, 0.0};
+    // SideSharpness of the view the model was built from (or its outline relearnt from).
+    std::array<double, 4> start_sharpness = {0.0, 0.0, 0.0, 0.0};
     bool textured_interior = false;  // the reference's interior has structure (grey std >= 8)
     // State.
     Mat3 H = Mat3::Identity(), H_prev = Mat3::Identity();
@@ -113,8 +115,9 @@ struct ObjectTracker::Impl {
                                      double min_dist) const;
   void ResetCornerPoints(Object* ob, const Corners& corners_px, const cv::Mat& gray) const;
   void SeedPoints(Object* ob, const cv::Mat& gray) const;
+  // SIDE_SIGN: the polarities to refine with instead of the object's (all 0: any).
   bool Refine(const Object& ob, const cv::Mat& gray, const Corners& c, bool coarse,
-              EdgeRefinement* out);
+              EdgeRefinement* out, const std::array<int, 4>* side_sign = nullptr);
   bool Init(Object* ob, const cv::Mat& gray, const Corners& corners, bool build_model);
 
   // object_appearance.cc

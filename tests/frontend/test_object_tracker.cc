@@ -293,6 +293,60 @@ TEST(ObjectTracker, VerticalDashKeepsThePredictedShape) {
   EXPECT_GT(off.worst, 5.0);  // the skew the option guards against is real
 }
 
+// A poster started in a smeared view (12 px of diagonal motion blur: the detector's outline, the
+// tracker's first view), then seen sharp, moving 1 px per frame. The side polarities learnt from
+// the smear are not the sharp view's, so its edges are not fitted; RelearnOutline in the first
+// sharp frame that the front end would confirm it in learns them again, and the edges carry the
+// corners.
+TEST(ObjectTracker, OutlineRelearntAfterASmearedStart) {
+  const cv::Mat tex = Texture(31);
+  auto corners = [](int k) {
+    return Pose(0.5, 0.6, Vec3(-0.1 + 0.005 * k, 0.05, 2.5), 0.2, 0.1, 0.0);
+  };
+  const cv::Mat bg = Background();
+  struct Run {
+    int fitted = 0;  // frames after the relearning whose corners the edges fixed
+    double worst = 0.0;
+    bool relearnt = false;
+  };
+  auto run = [&](bool relearn) {
+    const OneThread one_thread;
+    ObjectTracker tracker(Camera());
+    Run r;
+    EXPECT_TRUE(tracker.Start(5, Render(bg, {{tex, corners(0)}}, 1, 12, M_PI / 4), corners(0)));
+    for (int k = 1; k < 16; ++k) {
+      const cv::Mat img = Render(bg, {{tex, corners(k)}}, 1 + k);
+      const std::vector<TrackedObject> res = tracker.Track(img);
+      const TrackedObject* t = Find(res, 5);
+      EXPECT_TRUE(t && t->tracked) << "frame " << k;
+      if (!t || !t->tracked) continue;
+      if (k == 2 && relearn) r.relearnt = tracker.RelearnOutline(5, img, corners(k), 1.25);
+      if (k <= 2) continue;
+      r.fitted += t->edge_refined;
+      for (int j = 0; j < 4; ++j)
+        r.worst = std::max(r.worst, (t->corners_undistorted[j] - corners(k)[j]).norm());
+    }
+    return r;
+  };
+  const Run off = run(false), on = run(true);
+  std::printf(
+      "smeared start: edges fitted in %d / %d of the 13 frames after, worst corner %.2f / %.2f px "
+      "(without / with the relearning)\n",
+      off.fitted, on.fitted, off.worst, on.worst);
+  // Measured: fitted in 0 / 13 frames, worst corner 1.71 / 0.29 px.
+  EXPECT_TRUE(on.relearnt);
+  EXPECT_EQ(on.fitted, 13);
+  EXPECT_LE(on.worst, 0.6);
+  EXPECT_LT(off.fitted, 13);  // the failure the relearning guards against is real
+  EXPECT_GT(off.worst, 1.0);
+  // Started sharp: no view is clearly sharper, nothing is relearnt.
+  ObjectTracker sharp(Camera());
+  const cv::Mat img = Render(bg, {{tex, corners(0)}}, 1);
+  ASSERT_TRUE(sharp.Start(6, img, corners(0)));
+  EXPECT_FALSE(sharp.RelearnOutline(6, img, corners(0), 1.25));
+  EXPECT_FALSE(sharp.RelearnOutline(7, img, corners(0), 1.25));  // unknown id
+}
+
 // The simulator's rendered room (lens distortion, rendered textures, camera motion), 3 s: every
 // object is started (or resumed) on its ground truth when fully visible with sides >= 30 px and
 // scored on the frames where it is fully visible; no corners may be reported for an object that is

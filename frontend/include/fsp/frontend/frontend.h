@@ -136,6 +136,10 @@ struct FrontEndOptions {
   // seen anew more often than another object: it does not count as a live object there, and is
   // dropped when the dormant object resumes.
   bool reacquire_over_candidates = true;
+  // A candidate confirmed in a view at least this many times as sharp as the one it was started
+  // from (ObjectTracker::RelearnOutline: a candidate started in a smear, whose side polarities are
+  // the smear's) has its polarities relearnt there. 0: off.
+  double relearn_outline_sharper = 1.25;
   // A detection matched to a track whose corners differ from the track's by more than this (largest
   // corner distance) [px] replaces the track's corners (the tracker resumes from them, keeping its
   // model): the detector's corners are the better measurement, and a track that slid onto a nearby

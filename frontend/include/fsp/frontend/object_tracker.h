@@ -215,6 +215,15 @@ class ObjectTracker {
   // Track), keeping its model (re-identification). Returns false for an unknown id.
   bool Resume(int id, const cv::Mat& gray, const Corners& corners_undistorted);
 
+  // Relearns object `id`'s side polarities at `corners` (undistorted px) in `gray` (the frame last
+  // given to Track) when this view is at least `min_sharper` times as sharp as the one it was
+  // started from (summed SideSharpness of the four sides): an object started in a smeared view has
+  // the smear's polarities, on which its edges are then never found again. The track keeps its
+  // corners. Returns whether the polarities were relearnt (false for an unknown id, a view not
+  // sharper, or edges not found on all four sides).
+  bool RelearnOutline(int id, const cv::Mat& gray, const Corners& corners_undistorted,
+                      double min_sharper);
+
   // Forgets an object's model.
   void Drop(int id);
 
