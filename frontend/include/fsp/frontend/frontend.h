@@ -11,15 +11,16 @@
 //     where the back end predicts map objects in view, by geometry: a match resumes the old object
 //     under its old id (re-identification); otherwise it starts a candidate, which becomes an
 //     object (and produces observations) only once detected again in `confirm_detections` detection
-//     runs while tracked in between. A candidate lost before that is forgotten; a lost object goes
-//     dormant.
-//     A tag-like rectangle that no tag decoding names only resumes a dormant object by appearance;
-//     it starts nothing (a tag's identity is its id).
+//     runs while tracked in between (confirmed in a view clearly sharper than its first, it
+//     relearns its side polarities there: `relearn_outline_sharper`). A candidate lost before that
+//     is forgotten; a lost object goes dormant. A tag-like rectangle that no tag decoding names
+//     only resumes a dormant object by appearance; it starts nothing (a tag's identity is its id).
 //  4. emit: one observation per confirmed object tracked in this frame with its four corners in
 //  view;
 //  5. re-acquire (after 3, before the emission of 4): a dormant object the map predicts wholly in
 //     view that no detection resumed is looked for at its predicted corners and resumes there
-//     (`reacquire_predicted`).
+//     (`reacquire_predicted`); a plain candidate started on it is dropped then
+//     (`reacquire_over_candidates`).
 //
 // Identities: an AprilTag's id is its object id; plain rectangles get ids from `first_rect_id` up,
 // never reused. Classes: the most frequent class guess of an object's detections.
