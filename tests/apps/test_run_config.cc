@@ -63,8 +63,8 @@ TEST(RunConfig, DefaultYamlListsEveryKeyOnce) {
     EXPECT_TRUE(known.count(k)) << k << " in default.yaml is not a key";
 }
 
-// A tripwire, not a law: the config table (apps/run_config.cc Fields) lists the Options fields by
-// hand. When an Options struct grows, this fails: add the new field to Fields() and to
+// A tripwire, not a law: the config table (apps/run_config_fields.cc Fields) lists the Options
+// fields by hand. When an Options struct grows, this fails: add the new field to Fields() and to
 // default.yaml, then update the size here.
 TEST(RunConfig, OptionsStructsHaveTheFieldsTheConfigKnows) {
   EXPECT_EQ(sizeof(backend::EstimatorOptions), 688u) << "EstimatorOptions changed";
