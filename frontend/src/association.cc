@@ -21,6 +21,13 @@ Corners Shifted(const Corners& c, int r) {
   return out;
 }
 
+// Detection corners D in the corner order of track corners TRACK (the start that fits best).
+Corners InTrackOrder(const Corners& track, const Corners& d) {
+  int shift = 0;
+  MeanCornerDistanceBestShift(track, d, &shift);
+  return Shifted(d, shift);
+}
+
 // The mean of the four corners.
 Vec2 Centroid(const Corners& c) {
   return 0.25 * (c[0] + c[1] + c[2] + c[3]);
@@ -196,12 +203,9 @@ void FrontEnd::Impl::MatchTracks(const std::vector<Detection>& dets, std::vector
     // Confirmed in a view clearly sharper than its first: its polarities are relearnt on the
     // detection's outline (the track's may be off the edges it never found).
     if (!was_confirmed && objects[p.id].confirmed && w->o.relearn_outline_sharper > 0.0 &&
-        !w->blurred.count(p.id)) {
-      int shift = 0;
-      MeanCornerDistanceBestShift(w->tracked[p.id], d.corners_undistorted, &shift);
-      tracker.RelearnOutline(p.id, w->gray, Shifted(d.corners_undistorted, shift),
+        !w->blurred.count(p.id))
+      tracker.RelearnOutline(p.id, w->gray, InTrackOrder(w->tracked[p.id], d.corners_undistorted),
                              w->o.relearn_outline_sharper);
-    }
     if (AwayFromBorder(d, w->o) || (!w->edge_fitted.count(p.id) && !SideAlongBorder(d, w->o)))
       Correct(p.id, d, w);
   }
@@ -235,12 +239,8 @@ bool FrontEnd::Impl::ReidentifyAtConfirmation(int id, const Detection& d, FrameW
 void FrontEnd::Impl::Correct(int id, const Detection& d, FrameWork* w) {
   if (w->blurred.count(id)) return;
   Corners& track = w->tracked[id];
-  int shift = 0;
-  MeanCornerDistanceBestShift(track, d.corners_undistorted, &shift);
-  const Corners c = Shifted(d.corners_undistorted, shift);  // in the track's order
-  double worst = 0.0;
-  for (int j = 0; j < 4; ++j) worst = std::max(worst, (c[j] - track[j]).norm());
-  if (worst > w->o.correct_px && tracker.Resume(id, w->gray, c)) {
+  const Corners c = InTrackOrder(track, d.corners_undistorted);
+  if (MaxCornerDistance(c, track) > w->o.correct_px && tracker.Resume(id, w->gray, c)) {
     track = c;
     objects[id].last = c;
     w->coarse.erase(id);

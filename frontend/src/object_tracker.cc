@@ -395,12 +395,13 @@ bool ObjectTracker::RelearnOutline(int id, const cv::Mat& gray, const Corners& c
   if (it == impl_->objects.end()) return false;
   Impl::Object& ob = it->second;
   const std::array<double, 4> now = impl_->SideSharpness(gray, corners_undistorted);
-  double sum_now = 0.0, sum_start = 0.0;
+  double sum_now = 0.0, sum_start = 0.0;  // over the sides measured in both views
   for (int i = 0; i < 4; ++i) {
+    if (now[i] < 0.0 || ob.start_sharpness[i] < 0.0) continue;
     sum_now += now[i];
     sum_start += ob.start_sharpness[i];
   }
-  if (!(sum_now >= min_sharper * sum_start)) return false;
+  if (!(sum_start > 0.0 && sum_now >= min_sharper * sum_start)) return false;
   EdgeRefinement e;
   const std::array<int, 4> any = {0, 0, 0, 0};
   if (!impl_->Refine(ob, gray, corners_undistorted, false, &e, &any)) return false;

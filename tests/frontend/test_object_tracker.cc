@@ -107,9 +107,7 @@ TEST(ObjectTracker, SmearedThinFrameDoesNotPullTheCornersOutwards) {
       const TrackedObject* t = Find(res, 7);
       EXPECT_TRUE(t && t->tracked) << "frame " << k;
       if (!t || !t->tracked) return r;
-      double worst = 0.0;
-      for (int j = 0; j < 4; ++j)
-        worst = std::max(worst, (t->corners_undistorted[j] - corners(k)[j]).norm());
+      const double worst = MaxCornerDistance(t->corners_undistorted, corners(k));
       if (moving(k)) r.moving_err.push_back(worst);
       if (k > 17) r.after_max = std::max(r.after_max, worst);
       r.flagged += t->blurred;
@@ -162,9 +160,7 @@ TEST(ObjectTracker, BlurredZoomDoesNotDrift) {
       const TrackedObject* t = Find(res, 3);
       EXPECT_TRUE(t && t->tracked) << "frame " << k;
       if (!t || !t->tracked) return 1e9;
-      double worst = 0.0;
-      for (int j = 0; j < 4; ++j)
-        worst = std::max(worst, (t->corners_undistorted[j] - corners(k)[j]).norm());
+      const double worst = MaxCornerDistance(t->corners_undistorted, corners(k));
       if (moving(k)) err.push_back(worst);
       *aligned += t->aligned;
     }
@@ -218,9 +214,7 @@ TEST(ObjectTracker, FastPanFoundAtThePrediction) {
       const TrackedObject* t = Find(res, 5);
       if (!t || !t->tracked) continue;
       ++r.tracked;
-      double worst = 0.0;
-      for (int j = 0; j < 4; ++j)
-        worst = std::max(worst, (t->corners_undistorted[j] - corners(k)[j]).norm());
+      const double worst = MaxCornerDistance(t->corners_undistorted, corners(k));
       r.worst = std::max(r.worst, worst);
       if (t->fast) {
         ++r.found_fast;
@@ -277,8 +271,8 @@ TEST(ObjectTracker, VerticalDashKeepsThePredictedShape) {
       const TrackedObject* t = Find(res, 5);
       if (!t || !t->tracked) continue;
       ++r.tracked;
-      for (int j = 0; fast(k) && j < 4; ++j)
-        r.worst = std::max(r.worst, (t->corners_undistorted[j] - corners(k)[j]).norm());
+      if (fast(k))
+        r.worst = std::max(r.worst, MaxCornerDistance(t->corners_undistorted, corners(k)));
     }
     return r;
   };
@@ -323,8 +317,7 @@ TEST(ObjectTracker, OutlineRelearntAfterASmearedStart) {
       if (k == 2 && relearn) r.relearnt = tracker.RelearnOutline(5, img, corners(k), 1.25);
       if (k <= 2) continue;
       r.fitted += t->edge_refined;
-      for (int j = 0; j < 4; ++j)
-        r.worst = std::max(r.worst, (t->corners_undistorted[j] - corners(k)[j]).norm());
+      r.worst = std::max(r.worst, MaxCornerDistance(t->corners_undistorted, corners(k)));
     }
     return r;
   };
