@@ -173,6 +173,11 @@ BenchJson EvaluateBenchRun(const std::string& sequence, const fs::path& out,
     row["objects_gt"] = o.gt;
     row["objects_estimated"] = o.estimated;
     row["objects_matched"] = o.matched;
+    // Classes say something only from pixels (gt-corners runs take the ground truth's).
+    if (pixels) {
+      row["objects_classes_right"] = o.classes_right;
+      row["objects_classes_wrong"] = o.matched - o.classes_right;
+    }
     if (o.matched > 0) {
       row["corner_err_mean_m"] = o.corner_err.mean;
       row["corner_err_median_m"] = o.corner_err.median;
@@ -277,6 +282,9 @@ std::string SceneTable(const BenchJson& scene) {
       const std::string hi = Num(agg["max"]["objects_matched"].get<double>(), 1, 0);
       objects =
           (lo == hi ? lo : lo + "-" + hi) + "/" + Num(agg["max"].value("objects_gt", 0.0), 1, 0);
+      if (agg["min"].contains("objects_classes_right"))
+        objects +=
+            ", classes right " + Num(agg["min"]["objects_classes_right"].get<double>(), 1, 0);
     }
     md << Cell(agg, "ate_se3_m", 100, 2) << " | " << Cell(agg, "ate_causal_se3_m", 100, 2) << " | "
        << Cell(agg, "scale_err", 100, 2) << " | " << Cell(agg, "rpe_trans_m", 100, 3, false)

@@ -231,6 +231,7 @@ nlohmann::ordered_json ToJson(const Metrics& m) {
     b["estimated"] = o.estimated;
     b["matched"] = o.matched;
     b["corner_order_errors"] = o.corner_order_errors;
+    b["classes_right"] = o.classes_right;
     if (o.matched > 0) {
       b["corner_err_mean_m"] = o.corner_err.mean;
       b["corner_err_median_m"] = o.corner_err.median;
@@ -335,6 +336,12 @@ std::string FormatSummary(const Metrics& m) {
          << Format("%.4f", o.width_err.mean) << " m, max " << Format("%.4f", o.width_err.max)
          << " m; height error mean " << Format("%.4f", o.height_err.mean) << " m, max "
          << Format("%.4f", o.height_err.max) << " m";
+      os << "\n  classes right " << o.classes_right << "/" << o.matched;
+      std::string wrong;
+      for (const ObjectError& e : o.per_object)
+        if (!e.class_right)
+          wrong += " " + std::to_string(e.id) + " " + e.gt_class + "->" + e.est_class;
+      if (!wrong.empty()) os << " (wrong:" << wrong << ")";
     }
     os << "\n" << ObjectIdLine(o);
   }

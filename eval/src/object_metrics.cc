@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fsp/common/error.h"
+#include "fsp/common/types.h"
 
 namespace fsp::eval {
 
@@ -78,6 +79,12 @@ std::vector<Pair> MatchByGeometry(const std::vector<ObjectRecord>& gt,
     pairs.push_back(p);
   }
   return pairs;
+}
+
+// The class a file names (unknown when it names none the front end knows).
+ObjectClass ClassOf(const std::string& name) {
+  ObjectClass c = ObjectClass::kUnknown;
+  return ParseObjectClass(name, &c) ? c : ObjectClass::kUnknown;
 }
 
 }  // namespace
@@ -165,6 +172,10 @@ ObjectMetrics EvaluateObjects(const std::vector<ObjectRecord>& gt,
     oe.est_id = e.id;
     oe.corner_shift = p.shift;
     m.corner_order_errors += p.shift != 0 ? 1 : 0;
+    oe.est_class = e.object_class;
+    oe.gt_class = g.object_class;
+    oe.class_right = ClassOf(e.object_class) == ClassOf(g.object_class);
+    m.classes_right += oe.class_right ? 1 : 0;
     // Corner j: ‖s R c_est,j + t − c_gt,j‖ [m] (same s1..s4 index).
     for (size_t j = 0; j < 4; ++j) {
       const double err = (aligned[j] - g.corners_W[j]).norm();

@@ -181,20 +181,21 @@ ObjectClass GuessClass(const cv::Mat& smooth, const Corners& px, double aspect_w
   QuadStats(smooth, px, 0.8, &in_mean, &in_std);
   QuadStats(smooth, px, 1.25, &out_mean, &out_std);
   const double h_over_w = 1.0 / aspect_w_h;
-  //  - door: tall (metric h/w 1.7..3.2), not strongly textured;
-  //  - window: much brighter than its surroundings (> 30 grey levels: daylight; mullions
-  //  allowed);
-  //  - poster: otherwise a strongly textured interior (grey-level std > 30: print, pattern);
-  //    (a white calibration board on a dark background is therefore called a window);
-  //  - cabinet is never guessed from one image (a cabinet front looks like a wall panel);
-  //  - otherwise unknown.
+  // The first rule that applies:
   //  - tag (a fiducial without its id: use the AprilTag front end for ids): square-ish, a
   //    plain dark ring just inside the outline (the black border, 1/8 of the side: sampled at
   //    scale 0.875) inside a plain bright ring just outside it (the white margin, scale
   //    1.125), > 60 grey levels apart, and a patterned interior;
-  //  - window: brighter than its surroundings (> 30 grey levels) with a frame: the ring just
-  //    inside the outline (scale 0.95) darker than the interior on every side;
-  //  - a bright interior without such a frame is a poster (a print on the wall).
+  //  - door: tall (metric h/w 1.7..3.2), not strongly textured;
+  //  - window: brighter than its surroundings (> 30 grey levels) with a frame (the ring just
+  //    inside the outline, scale 0.95, darker than the interior by > 20 on every side) that is
+  //    at most half as bright as the interior on every side (daylight through glass; mullions
+  //    allowed);
+  //  - cabinet: a frame round a plain interior (grey-level std < 20) that is not door-shaped
+  //    (a panelled front; a wall panel with a frame is called a cabinet too);
+  //  - poster: brighter than its surroundings otherwise (a print on the wall: a white
+  //    calibration board is one), or a strongly textured interior (std > 30);
+  //  - otherwise unknown.
   double ring_in, ring_in_std, ring_out, ring_out_std, frame, frame_std, frame_max;
   RingStats(smooth, px, 0.875, &ring_in, &ring_in_std);
   RingStats(smooth, px, 1.125, &ring_out, &ring_out_std);
@@ -205,9 +206,12 @@ ObjectClass GuessClass(const cv::Mat& smooth, const Corners& px, double aspect_w
                         in_std > 30.0 && h_over_w >= 0.67 && h_over_w <= 1.5;
   if (tag_like) return ObjectClass::kTag;
   if (h_over_w >= 1.7 && h_over_w <= 3.2 && in_std < 40.0) return ObjectClass::kDoor;
-  if (out_mean >= 0.0 && in_mean - out_mean > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5)
-    return frame >= 0.0 && frame_max < in_mean - 20.0 ? ObjectClass::kWindow : ObjectClass::kPoster;
-  if (in_std > 30.0 && h_over_w >= 0.4 && h_over_w <= 2.5) return ObjectClass::kPoster;
+  if (h_over_w < 0.4 || h_over_w > 2.5) return ObjectClass::kUnknown;
+  const bool framed = frame >= 0.0 && frame_max < in_mean - 20.0;
+  const bool brighter = out_mean >= 0.0 && in_mean - out_mean > 30.0;
+  if (brighter && framed && in_mean >= 2.0 * frame_max) return ObjectClass::kWindow;
+  if (framed && in_std < 20.0) return ObjectClass::kCabinet;
+  if (brighter || in_std > 30.0) return ObjectClass::kPoster;
   return ObjectClass::kUnknown;
 }
 

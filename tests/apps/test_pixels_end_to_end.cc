@@ -203,6 +203,10 @@ TEST(PixelsEndToEnd, BatchFromPixelsMapsTheRoom) {
   EXPECT_GE(r.metrics.objects->matched, 5u);
   EXPECT_LT(r.metrics.objects->width_err.mean, 0.012);
   EXPECT_LT(r.metrics.objects->height_err.mean, 0.01);
+  // Every matched object gets its class right (a painting counts as a poster).
+  for (const auto& o : r.metrics.objects->per_object)
+    EXPECT_TRUE(o.class_right) << "object " << o.id << ": " << o.gt_class << " mapped as "
+                               << o.est_class;
   // Tags are mapped under their tag ids (tag 33 is never in view).
   std::set<int> ids;
   for (const auto& o : r.map["objects"]) ids.insert(o["id"].get<int>());

@@ -89,6 +89,12 @@ void ExpectHandComputedObjectErrors(const ObjectMetrics& m) {
   EXPECT_NEAR(m.per_object[0].normal_err_deg, 0.0, 1e-6);
   // The window's normal: (c2 − c1) × (c4 − c1) is unchanged by moving c3.
   EXPECT_NEAR(m.per_object[1].normal_err_deg, 0.0, 1e-6);
+  // Every map object is called a door: right for the door, wrong for the window.
+  EXPECT_EQ(m.classes_right, 1u);
+  EXPECT_TRUE(m.per_object[0].class_right);
+  EXPECT_FALSE(m.per_object[1].class_right);
+  EXPECT_EQ(m.per_object[1].gt_class, "window");
+  EXPECT_EQ(m.per_object[1].est_class, "door");
 }
 
 TEST(ObjectMetrics, HandComputedErrorsInTheSameFrame) {
@@ -96,6 +102,32 @@ TEST(ObjectMetrics, HandComputedErrorsInTheSameFrame) {
   const auto gt = ReadObjectsJson(WriteText(dir, "objects_gt.json", kObjectsGt));
   const auto est = ReadObjectsJson(WriteText(dir, "map.json", MapJson(Alignment{})));
   ExpectHandComputedObjectErrors(EvaluateObjects(gt, est, Alignment{}));
+}
+
+// Classes are compared as the front end names them: a painting is a poster; a class nobody knows
+// counts as unknown.
+TEST(ObjectMetrics, ClassesAreComparedAsTheFrontEndNamesThem) {
+  const auto dir = test::ScratchDir();
+  auto object = [](int id, const std::string& c, double x) {
+    std::ostringstream os;
+    os << "{\"id\": " << id << ", \"class\": \"" << c << "\", \"corners_W\": [[" << x << ",0,1],["
+       << x + 1 << ",0,1],[" << x + 1 << ",0,2],[" << x << ",0,2]], \"width\": 1, \"height\": 1}";
+    return os.str();
+  };
+  const auto gt =
+      ReadObjectsJson(WriteText(dir, "gt.json",
+                                "{\"objects\": [" + object(1, "painting", 0) + "," +
+                                    object(2, "cabinet", 2) + "," + object(3, "shelf", 4) + "]}"));
+  const auto est =
+      ReadObjectsJson(WriteText(dir, "map.json",
+                                "{\"objects\": [" + object(7, "poster", 0) + "," +
+                                    object(8, "window", 2) + "," + object(9, "unknown", 4) + "]}"));
+  const ObjectMetrics m = EvaluateObjects(gt, est, Alignment{});
+  ASSERT_EQ(m.matched, 3u);
+  EXPECT_EQ(m.classes_right, 2u);
+  EXPECT_TRUE(m.per_object[0].class_right);
+  EXPECT_FALSE(m.per_object[1].class_right);
+  EXPECT_TRUE(m.per_object[2].class_right);
 }
 
 TEST(ObjectMetrics, RigidAlignmentLeavesSizesAloneAndSim3ScalesThem) {

@@ -465,5 +465,35 @@ TEST(RectDetector, DoorWithoutBottomEdgeFoundByDoorHypotheses) {
   EXPECT_TRUE(RectDetector(off).Detect(img).detections.empty());
 }
 
+// Windows and cabinet fronts are both a dark frame round a plain panel: a window's pane (daylight)
+// is more than twice as bright as its frame on every side, a cabinet's body is not, even when it is
+// brighter than the wall.
+TEST(RectDetector, ClassGuessTellsAWindowFromACabinetFront) {
+  auto rect = [](double w, double h, const Vec3& centre, int grey) {
+    return test::SyntheticRect{test::ProjectRect(w, h, centre, 0.3, 0.1, 0.0, 500.0, 319.5, 239.5),
+                               grey};
+  };
+  const Vec3 win_c(-0.75, -0.2, 2.0), dark_c(0.0, 0.1, 2.0), light_c(0.7, 0.1, 2.0);
+  // 4 cm frames; the window 0.5 x 0.4 m, the cabinets 0.5 x 0.6 m (not door-shaped).
+  const std::vector<test::SyntheticRect> quads = {
+      rect(0.50, 0.40, win_c, 40),
+      rect(0.42, 0.32, win_c, 225),  // window: pane 5.6x its frame
+      rect(0.50, 0.60, dark_c, 60),
+      rect(0.42, 0.52, dark_c, 135),  // cabinet as bright as the wall
+      rect(0.50, 0.60, light_c, 110),
+      rect(0.42, 0.52, light_c, 190)};  // brighter than the wall
+  const cv::Mat img = test::RenderQuads(640, 480, quads, 0.8, 2.0, 11, 120);
+  const auto dets = RectDetector().Detect(img).detections;
+  auto class_at = [&](const Corners& c) {
+    for (const Detection& d : dets)
+      if (CornerDistanceBestShift(c, d.corners_px) < 0.5) return d.object_class;
+    ADD_FAILURE() << "no detection at the outline";
+    return ObjectClass::kUnknown;
+  };
+  EXPECT_EQ(class_at(quads[0].corners), ObjectClass::kWindow);
+  EXPECT_EQ(class_at(quads[2].corners), ObjectClass::kCabinet);
+  EXPECT_EQ(class_at(quads[4].corners), ObjectClass::kCabinet);
+}
+
 }  // namespace
 }  // namespace fsp::frontend

@@ -17,6 +17,8 @@
 //    alone; Sim3 scales them by s); mean and max over matched objects.
 //  - normal error: angle between R n_est and n_gt [deg], n = (c2 − c1) × (c4 − c1) / ‖…‖ (the face
 //    normal z).
+//  - class: a match's class is right when both name the same ObjectClass (common/types.h: a
+//    painting is a poster); a class neither side can name counts as unknown.
 #pragma once
 
 #include <array>
@@ -57,6 +59,8 @@ struct ObjectError {
   double width_err_m = 0.0;
   double height_err_m = 0.0;
   double normal_err_deg = 0.0;
+  bool class_right = false;
+  std::string est_class, gt_class;  // as the files spell them
 };
 
 struct ObjectMetrics {
@@ -64,6 +68,7 @@ struct ObjectMetrics {
   size_t estimated = 0;                 // objects in the map
   size_t matched = 0;                   // matched pairs (see above)
   size_t corner_order_errors = 0;       // matches whose best cyclic shift is not the identity
+  size_t classes_right = 0;             // matches whose classes agree (see above)
   ErrorStats corner_err;                // [m], over 4 × matched corners
   ErrorStats width_err;                 // [m], over matched objects
   ErrorStats height_err;                // [m]

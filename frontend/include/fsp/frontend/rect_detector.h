@@ -328,7 +328,7 @@ struct RectDetectorOptions {
   // not reported but still suppresses the rectangles inside it (with `drop_contained`): a door
   // whose bottom corners are just out of view hides its leaf and panels. 0 switches this off.
   double container_outside_frac = 0.25;
-  // Guess classes (tag, door, window, poster; never cabinet) from shape, brightness and texture.
+  // Guess classes (tag, door, window, cabinet, poster) from shape, brightness and texture.
   bool guess_class = true;
 
   // --- 6. suppression ---
