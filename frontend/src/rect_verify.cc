@@ -187,7 +187,7 @@ ObjectClass GuessClass(const cv::Mat& smooth, const Corners& px, double aspect_w
   //    scale 0.875) inside a plain bright ring just outside it (the white margin, scale
   //    1.125), > 60 grey levels apart, and a patterned interior;
   //  - door: tall (metric h/w 1.7..3.2), not strongly textured;
-  //  - window: brighter than its surroundings (> 30 grey levels) with a frame (the ring just
+  //  - window: brighter than its surroundings (> 15 grey levels) with a frame (the ring just
   //    inside the outline, scale 0.95, darker than the interior by > 20 on every side) that is
   //    at most half as bright as the interior on every side (daylight through glass; mullions
   //    allowed);
@@ -209,7 +209,8 @@ ObjectClass GuessClass(const cv::Mat& smooth, const Corners& px, double aspect_w
   if (h_over_w < 0.4 || h_over_w > 2.5) return ObjectClass::kUnknown;
   const bool framed = frame >= 0.0 && frame_max < in_mean - 20.0;
   const bool brighter = out_mean >= 0.0 && in_mean - out_mean > 30.0;
-  if (brighter && framed && in_mean >= 2.0 * frame_max) return ObjectClass::kWindow;
+  if (out_mean >= 0.0 && in_mean - out_mean > 15.0 && framed && in_mean >= 2.0 * frame_max)
+    return ObjectClass::kWindow;
   if (framed && in_std < 20.0) return ObjectClass::kCabinet;
   if (brighter || in_std > 30.0) return ObjectClass::kPoster;
   return ObjectClass::kUnknown;
