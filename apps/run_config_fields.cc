@@ -173,6 +173,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.rect.min_side_support", &f.rect.min_side_support, kNonNegative},
       {"frontend.rect.frame_band_max_frac", &f.rect.frame_band_max_frac, kNonNegative},
       {"frontend.rect.band_max_px", &f.rect.band_max_px, kNonNegative},
+      {"frontend.rect.band_thin_px", &f.rect.band_thin_px, kNonNegative},
       {"frontend.rect.max_side_continuation", &f.rect.max_side_continuation, kNonNegative},
       {"frontend.rect.continuation_start_px", &f.rect.continuation_start_px, kNonNegative},
       {"frontend.rect.continuation_frac", &f.rect.continuation_frac, kNonNegative},

@@ -254,7 +254,7 @@ bool FitEdges(const std::vector<double>& s, const std::vector<double>& y, Eigen:
 
 // The offset [px, along n] from side P -> Q's gradient peak to the edge of the model, when an edge
 // of the opposite polarity lies within band_max_px; false (no move) otherwise.
-bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2& n,
+bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2& n, bool n_inward,
                 double* offset) {
   const RectDetectorOptions& o = probe.o;
   const int K = static_cast<int>(std::ceil((o.band_max_px + 2.5) / kBandStep));
@@ -304,6 +304,32 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
   // white cells): their pushes oppose and the mix of cells along the side makes the profile no
   // model of it (the rendered room's small tags came out 0.1-0.2 px too large with it).
   if ((nb[0] < 0) == (nb[1] < 0)) return false;
+  // A thin band outside the side (the side on a thin frame's inner edge: a poster's paper is
+  // brighter than the wall, so its edge is the stronger one): its two peaks within band_thin_px
+  // are the blur's, not the band's width, which the profile does not fix (a two-edge fit drifts
+  // along it), but its grey's extremum lies at its centre: the side moves there, within half the
+  // band of the outline.
+  const int opp = nb[0] >= 0 ? nb[0] : nb[1];
+  if (o.band_thin_px > 0.0 && (nb[0] >= 0) == n_inward &&
+      std::abs(vertex(opp, -pol) - s_pk) <= o.band_thin_px) {
+    // The band's grey is an extremum of sign * y: a maximum after a rising peak, a minimum
+    // before it, and so on.
+    const double sign = opp > pk ? pol : -pol;
+    if (sign > 0.0)
+      return false;  // a bright band outside (a tag's white margin) is not the object's
+    int ex = -1;
+    for (int i = std::min(pk, opp) + 1; i < std::max(pk, opp); ++i)
+      if (ex < 0 || sign * y[i] > sign * y[ex]) ex = i;
+    if (ex < 1 || ex > N - 2) return false;
+    const double ym = sign * y[ex - 1], y0 = sign * y[ex], yp = sign * y[ex + 1];
+    const double den = ym - 2.0 * y0 + yp;
+    const double s_ex =
+        s[ex] + (den < 0.0 ? std::clamp(0.5 * (ym - yp) / den, -0.5, 0.5) : 0.0) * kBandStep;
+    // Half a thin band and the blur's push on its inner edge: at most 2 px.
+    if (std::abs(s_ex - s_pk) > 2.0) return false;
+    *offset = s_ex - s_pk;
+    return true;
+  }
   // The two edges in order of s, each step initialised from the grey halfway to its neighbours.
   const int main_edge = nb[0] >= 0 ? 1 : 0;
   const std::array<int, 2> idx = {main_edge == 1 ? nb[0] : pk, main_edge == 1 ? pk : nb[1]};
@@ -345,11 +371,12 @@ void CorrectBandOffsets(const EdgeProbe& probe, Corners* corners) {
   const Corners& c = *corners;
   std::array<Line, 4> lines;
   bool moved = false;
+  const Vec2 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
   for (int i = 0; i < 4; ++i) {
     const Vec2 P = c[(i + 3) % 4], Q = c[i];
     lines[i] = LineOf(MakeSeg(P, Q));
     double offset = 0.0;
-    if (BandOffset(probe, P, Q, lines[i].n, &offset)) {
+    if (BandOffset(probe, P, Q, lines[i].n, lines[i].n.dot(centre - P) > 0.0, &offset)) {
       lines[i].c += offset;
       moved = true;
     }

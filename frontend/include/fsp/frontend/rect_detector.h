@@ -224,6 +224,11 @@ struct RectDetectorOptions {
   // band). A model of the two blurred edges is fitted to the side's median profile across it and
   // the side is moved from the peak to the model's edge. 0: off.
   double band_max_px = 4.0;
+  // A band outside the side (the side found on a thin frame's inner edge) whose two edges' peaks
+  // lie within this distance: the peaks are the blur's, the band's width is not known, and the
+  // side moves to the band's centre (its grey's extremum), within half the band of the outline.
+  // 0: off (the two-edge model instead, which keeps the side on the inner edge).
+  double band_thin_px = 3.5;
   // T-junction test: a side's edge must end at its corners. Edge points are searched on the side's
   // line extended past each corner, from `continuation_start_px` (clear of the other side's
   // blurred edge) over `continuation_frac` x the side's length; a point counts when its gradient
