@@ -304,24 +304,21 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
   // white cells): their pushes oppose and the mix of cells along the side makes the profile no
   // model of it (the rendered room's small tags came out 0.1-0.2 px too large with it).
   if ((nb[0] < 0) == (nb[1] < 0)) return false;
-  // A thin band outside the side (the side on a thin frame's inner edge: a poster's paper is
+  // A thin dark band outside the side (the side on a thin frame's inner edge: a poster's paper is
   // brighter than the wall, so its edge is the stronger one): its two peaks within band_thin_px
   // are the blur's, not the band's width, which the profile does not fix (a two-edge fit drifts
-  // along it), but its grey's extremum lies at its centre: the side moves there, within half the
-  // band of the outline.
+  // along it), but its darkest point lies at its centre (shifted towards the darker neighbour,
+  // the wall): the side moves there, within half the band of the outline. A bright band outside
+  // the side (a tag's white margin) is not the object's.
   const int opp = nb[0] >= 0 ? nb[0] : nb[1];
   if (o.band_thin_px > 0.0 && (nb[0] >= 0) == n_inward &&
       std::abs(vertex(opp, -pol) - s_pk) <= o.band_thin_px) {
-    // The band's grey is an extremum of sign * y: a maximum after a rising peak, a minimum
-    // before it, and so on.
-    const double sign = opp > pk ? pol : -pol;
-    if (sign > 0.0)
-      return false;  // a bright band outside (a tag's white margin) is not the object's
-    int ex = -1;
+    if ((opp > pk ? pol : -pol) > 0.0) return false;  // the profile rises into the band: bright
+    int ex = -1;                                      // the band's darkest sample
     for (int i = std::min(pk, opp) + 1; i < std::max(pk, opp); ++i)
-      if (ex < 0 || sign * y[i] > sign * y[ex]) ex = i;
+      if (ex < 0 || y[i] < y[ex]) ex = i;
     if (ex < 1 || ex > N - 2) return false;
-    const double ym = sign * y[ex - 1], y0 = sign * y[ex], yp = sign * y[ex + 1];
+    const double ym = -y[ex - 1], y0 = -y[ex], yp = -y[ex + 1];
     const double den = ym - 2.0 * y0 + yp;
     const double s_ex =
         s[ex] + (den < 0.0 ? std::clamp(0.5 * (ym - yp) / den, -0.5, 0.5) : 0.0) * kBandStep;
