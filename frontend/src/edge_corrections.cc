@@ -300,33 +300,35 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
     int& slot = nb[s[i] > s_pk ? 1 : 0];
     if (slot < 0 || dist < std::abs(s[slot] - s_pk)) slot = i;
   }
-  // None: no band. One on either side (a tag's black border between its white margin and its
-  // white cells): their pushes oppose and the mix of cells along the side makes the profile no
-  // model of it (the rendered room's small tags came out 0.1-0.2 px too large with it).
-  if ((nb[0] < 0) == (nb[1] < 0)) return false;
   // A thin dark band outside the side (the side on a thin frame's inner edge: a poster's paper is
   // brighter than the wall, so its edge is the stronger one): its two peaks within band_thin_px
   // are the blur's, not the band's width, which the profile does not fix (a two-edge fit drifts
   // along it), but its darkest point lies at its centre (shifted towards the darker neighbour,
-  // the wall): the side moves there, within half the band of the outline. A bright band outside
-  // the side (a tag's white margin) is not the object's.
-  const int opp = nb[0] >= 0 ? nb[0] : nb[1];
-  if (o.band_thin_px > 0.0 && (nb[0] >= 0) == n_inward &&
-      std::abs(vertex(opp, -pol) - s_pk) <= o.band_thin_px) {
-    if ((opp > pk ? pol : -pol) > 0.0) return false;  // the profile rises into the band: bright
-    int ex = -1;                                      // the band's darkest sample
-    for (int i = std::min(pk, opp) + 1; i < std::max(pk, opp); ++i)
+  // the wall): the side moves there, within half the band of the outline, whatever lies inside
+  // (a poster's line of text near its bottom). A bright band outside the side (a tag's white
+  // margin) is not the object's.
+  const int out = nb[n_inward ? 0 : 1];
+  if (o.band_thin_px > 0.0 && out >= 0 && std::abs(vertex(out, -pol) - s_pk) <= o.band_thin_px &&
+      (out > pk ? pol : -pol) < 0.0) {  // the profile falls into the band: dark
+    int ex = -1;                        // the band's darkest sample
+    for (int i = std::min(pk, out) + 1; i < std::max(pk, out); ++i)
       if (ex < 0 || y[i] < y[ex]) ex = i;
-    if (ex < 1 || ex > N - 2) return false;
-    const double ym = -y[ex - 1], y0 = -y[ex], yp = -y[ex + 1];
-    const double den = ym - 2.0 * y0 + yp;
-    const double s_ex =
-        s[ex] + (den < 0.0 ? std::clamp(0.5 * (ym - yp) / den, -0.5, 0.5) : 0.0) * kBandStep;
-    // Half a thin band and the blur's push on its inner edge: at most 2 px.
-    if (std::abs(s_ex - s_pk) > 2.0) return false;
-    *offset = s_ex - s_pk;
-    return true;
+    if (ex >= 1 && ex <= N - 2) {
+      const double ym = -y[ex - 1], y0 = -y[ex], yp = -y[ex + 1];
+      const double den = ym - 2.0 * y0 + yp;
+      const double s_ex =
+          s[ex] + (den < 0.0 ? std::clamp(0.5 * (ym - yp) / den, -0.5, 0.5) : 0.0) * kBandStep;
+      // Half a thin band and the blur's push on its inner edge: at most 2 px.
+      if (std::abs(s_ex - s_pk) <= 2.0) {
+        *offset = s_ex - s_pk;
+        return true;
+      }
+    }
   }
+  // None: no band. One on either side (a tag's black border between its white margin and its
+  // white cells): their pushes oppose and the mix of cells along the side makes the profile no
+  // model of it (the rendered room's small tags came out 0.1-0.2 px too large with it).
+  if ((nb[0] < 0) == (nb[1] < 0)) return false;
   // The two edges in order of s, each step initialised from the grey halfway to its neighbours.
   const int main_edge = nb[0] >= 0 ? 1 : 0;
   const std::array<int, 2> idx = {main_edge == 1 ? nb[0] : pk, main_edge == 1 ? pk : nb[1]};

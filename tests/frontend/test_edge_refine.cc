@@ -193,6 +193,36 @@ TEST(EdgeRefine, ThinFrameSeenOnItsInnerEdgeMovesToItsCentre) {
     EXPECT_GT(e1, -0.5 * w - 0.1) << "frame " << w << " px";
     EXPECT_LT(e1, 0.3) << "frame " << w << " px";
   }
+  // The same 1.5 px frame with a dark printed line 2 px inside the paper's edge (a poster's text
+  // near its bottom): an edge of the other polarity inside the side too, which the two-edge model
+  // leaves alone, but the thin band outside still moves the side (measured -2.31 -> -0.33 px).
+  const double w = 1.5;
+  const Vec2 iu = u.normalized() * w, iv = v.normalized() * w;
+  const Corners paper = {s1 + iu + iv, s1 + u - iu + iv, s1 + u + v - iu - iv, s1 + v + iu - iv};
+  auto inset = [&](double d) {
+    const Vec2 du = u.normalized() * d, dv = v.normalized() * d;
+    return Corners{s1 + du + dv, s1 + u - du + dv, s1 + u + v - du - dv, s1 + v + du - dv};
+  };
+  const cv::Mat img = test::RenderQuads(
+      640, 480, {{outline, 40}, {paper, 228}, {inset(w + 2.0), 30}, {inset(w + 2.75), 228}}, 0.8,
+      2.0, /*seed=*/5, /*background=*/150);
+  const cv::Mat smooth = EdgeRefineImage(img);
+  const std::array<int, 4> inner = {-1, -1, -1, -1};
+  const EdgeRefinement before = RefineCornersOnEdges(smooth, nullptr, paper, 2.0, off, inner);
+  const EdgeRefinement after =
+      RefineCornersOnEdges(smooth, nullptr, paper, 2.0, RectDetectorOptions(), inner);
+  ASSERT_TRUE(before.ok && after.ok);
+  double e0 = 0.0, e1 = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    const Vec2 out = (outline[i] - centre).normalized();
+    e0 += 0.25 * (before.corners_undistorted[i] - outline[i]).dot(out);
+    e1 += 0.25 * (after.corners_undistorted[i] - outline[i]).dot(out);
+  }
+  std::printf("frame 1.5 px with a printed line inside: outward %.3f px before, %.3f after\n", e0,
+              e1);
+  EXPECT_LT(e0, -w);
+  EXPECT_GT(e1, -0.5 * w - 0.1);
+  EXPECT_LT(e1, 0.3);
 }
 
 }  // namespace

@@ -495,5 +495,24 @@ TEST(RectDetector, ClassGuessTellsAWindowFromACabinetFront) {
   EXPECT_EQ(class_at(quads[4].corners), ObjectClass::kCabinet);
 }
 
+// A crop (x 300-410, y 180-300) of frame 12.40 s of `fsp render assets/scenes/clip_zoom_roll.yaml
+// --seed 1`: poster 4, 40 px wide, its dark frame 1.2 px, a line of text near its bottom. The
+// bottom side's edge is the paper's (the stronger), with the frame outside it and the text's edge
+// inside it; the thin-band rule (band_thin_px) moves it onto the frame whatever lies inside.
+// Before (the rule after the "edges on both sides" check) the bottom was 1.6 px above the outline.
+TEST(RectDetector, ThinFramedPosterBottomAboveItsTextLine) {
+  const cv::Mat img = cv::imread(
+      std::string(FSP_FRONTEND_TEST_DATA) + "/zoom_roll_poster4_crop.png", cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(img.empty());
+  // The rendered ground truth (observations_gt.csv) moved into the crop.
+  const Corners gt = {Vec2(35.945, 88.793), Vec2(75.401, 87.863), Vec2(75.401, 31.137),
+                      Vec2(35.945, 30.207)};
+  const auto dets = RectDetector().Detect(img).detections;
+  double best = 1e9;
+  for (const Detection& d : dets) best = std::min(best, MaxCornerDistance(d.corners_px, gt));
+  std::printf("thin-framed poster above its text line: worst corner %.2f px\n", best);
+  EXPECT_LT(best, 0.8);  // measured 0.67 (1.74 before)
+}
+
 }  // namespace
 }  // namespace fsp::frontend
