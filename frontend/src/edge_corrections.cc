@@ -283,11 +283,13 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
     if (pk < 0 || std::abs(grad[i]) > std::abs(grad[pk])) pk = i;
   const double pol = grad[pk] > 0.0 ? 1.0 : -1.0;
   if (std::abs(grad[pk]) < 2.0) return false;
-  auto vertex = [&](int i, double sign) {  // parabola through sign * grad at i-1, i, i+1
-    const double gm = sign * grad[i - 1], g0 = sign * grad[i], gp = sign * grad[i + 1];
-    const double den = gm - 2.0 * g0 + gp;
-    return s[i] + (den < 0.0 ? std::clamp(0.5 * (gm - gp) / den, -0.5, 0.5) : 0.0) * kBandStep;
+  // The maximum of sign * f near sample i: the vertex of the parabola through i-1, i, i+1.
+  auto vertex_of = [&](const std::vector<double>& f, int i, double sign) {
+    const double fm = sign * f[i - 1], f0 = sign * f[i], fp = sign * f[i + 1];
+    const double den = fm - 2.0 * f0 + fp;
+    return s[i] + (den < 0.0 ? std::clamp(0.5 * (fm - fp) / den, -0.5, 0.5) : 0.0) * kBandStep;
   };
+  auto vertex = [&](int i, double sign) { return vertex_of(grad, i, sign); };
   const double s_pk = vertex(pk, pol);
   // The nearest strong opposite edge (a local maximum of -pol * grad) within band_max_px on
   // either side.
@@ -314,10 +316,7 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
     for (int i = std::min(pk, out) + 1; i < std::max(pk, out); ++i)
       if (ex < 0 || y[i] < y[ex]) ex = i;
     if (ex >= 1 && ex <= N - 2) {
-      const double ym = -y[ex - 1], y0 = -y[ex], yp = -y[ex + 1];
-      const double den = ym - 2.0 * y0 + yp;
-      const double s_ex =
-          s[ex] + (den < 0.0 ? std::clamp(0.5 * (ym - yp) / den, -0.5, 0.5) : 0.0) * kBandStep;
+      const double s_ex = vertex_of(y, ex, -1.0);
       // Half a thin band and the blur's push on its inner edge: at most 2 px.
       if (std::abs(s_ex - s_pk) <= 2.0) {
         *offset = s_ex - s_pk;
