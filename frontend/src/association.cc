@@ -293,7 +293,7 @@ void FrontEnd::Impl::StartOrResume(const std::vector<Detection>& dets,
     } else {
       corners = d.corners_undistorted;
       id = next_rect_id;
-      if (!tracker.Start(id, w->gray, corners)) continue;
+      if (!tracker.Start(id, w->gray, corners, d.side_sign)) continue;
       ++next_rect_id;
       objects[id].detections = replaced_votes;
     }

@@ -96,6 +96,7 @@ void FrontEnd::Impl::DecodeTags(const cv::Mat& gray, const FrontEndOptions& o,
       d.corners_px = px;
       for (int j = 0; j < 4; ++j) d.corners_undistorted[j] = camera.UndistortPixel(px[j]);
       d.score = t.score;
+      d.side_sign = {0, 0, 0, 0};  // the tag's corners, not the rectangle's sides
       break;
     }
   }

@@ -270,7 +270,7 @@ std::array<double, 4> ObjectTracker::Impl::SideSharpness(const cv::Mat& gray, co
 }
 
 bool ObjectTracker::Impl::Init(Object* ob, const cv::Mat& gray, const Corners& corners,
-                               bool build_model) {
+                               bool build_model, const std::array<int, 4>& side_sign) {
   if (!IsConvex(corners) || ShortestSide(corners) < o.min_side_px) return false;
   for (const Vec2& c : corners) {
     const Vec2 d = ToDistorted(c);
@@ -318,7 +318,10 @@ bool ObjectTracker::Impl::Init(Object* ob, const cv::Mat& gray, const Corners& c
     // Edge polarity per side, so that each side stays on its own edge later.
     ob->side_sign = {0, 0, 0, 0};
     EdgeRefinement e;
-    if (Refine(*ob, gray, corners, false, &e)) ob->side_sign = e.side_sign;
+    const bool hint = std::all_of(side_sign.begin(), side_sign.end(), [](int v) { return v != 0; });
+    if (Refine(*ob, gray, corners, false, &e) ||
+        (hint && Refine(*ob, gray, corners, false, &e, &side_sign)))
+      ob->side_sign = e.side_sign;
     ob->start_sharpness = SideSharpness(gray, corners);
     if (o.blur_sharpness_ratio > 0.0) ob->sharpness = ob->start_sharpness;
   }
@@ -338,11 +341,12 @@ ObjectTracker::ObjectTracker(const PinholeRadtan& camera, Options options)
 
 ObjectTracker::~ObjectTracker() = default;
 
-bool ObjectTracker::Start(int id, const cv::Mat& gray, const Corners& corners_undistorted) {
+bool ObjectTracker::Start(int id, const cv::Mat& gray, const Corners& corners_undistorted,
+                          const std::array<int, 4>& side_sign) {
   impl_->CheckFrame(gray);
   Impl::Object ob;
   ob.id = id;
-  if (!impl_->Init(&ob, gray, corners_undistorted, true)) return false;
+  if (!impl_->Init(&ob, gray, corners_undistorted, true, side_sign)) return false;
   impl_->SetPrevFrame(gray);
   impl_->objects[id] = std::move(ob);
   return true;

@@ -118,7 +118,9 @@ struct ObjectTracker::Impl {
   // SIDE_SIGN: the polarities to refine with instead of the object's (all 0: any).
   bool Refine(const Object& ob, const cv::Mat& gray, const Corners& c, bool coarse,
               EdgeRefinement* out, const std::array<int, 4>* side_sign = nullptr);
-  bool Init(Object* ob, const cv::Mat& gray, const Corners& corners, bool build_model);
+  // SIDE_SIGN (build_model only): the polarities tried when either polarity per side fails.
+  bool Init(Object* ob, const cv::Mat& gray, const Corners& corners, bool build_model,
+            const std::array<int, 4>& side_sign = {0, 0, 0, 0});
 
   // object_appearance.cc
   static std::vector<cv::Mat> Levels(const std::vector<cv::Mat>& pyr, bool with_derivatives);

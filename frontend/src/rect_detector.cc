@@ -397,7 +397,10 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
     }
     const EdgeRefinement ref = RefineCornersOnEdges(smooth, cam, full_und, res.canny_low / 8.0 / s,
                                                     fo, SidePolarity(level_smooth, d.corners_px));
-    if (ref.ok) full_und = ref.corners_undistorted;
+    if (ref.ok) {
+      full_und = ref.corners_undistorted;
+      d.side_sign = ref.side_sign;
+    }
     d.corners_undistorted = full_und;
     for (int i = 0; i < 4; ++i)
       d.corners_px[i] = cam ? cam->DistortPixel(full_und[i]) : full_und[i];

@@ -456,6 +456,32 @@ std::vector<Mat3> CandidateIntrinsics(const RectDetectorOptions& o, int cols, in
   return Ks;
 }
 
+namespace {
+
+// The refinement's side polarities (grouping order) for the canonical corners: canonical side j
+// (c[j-1] to c[j]) is the grouping side between the same two corners, its sign flipped when it runs
+// the other way (its left normal turns round). 0 for a side taken without an edge.
+std::array<int, 4> CanonicalSideSigns(const Quad& q) {
+  std::array<int, 4> at{};  // index in c_grouping of canonical corner i
+  for (int i = 0; i < 4; ++i) {
+    at[i] = 0;
+    for (int k = 1; k < 4; ++k)
+      if ((q.c_grouping[k] - q.c[i]).squaredNorm() < (q.c_grouping[at[i]] - q.c[i]).squaredNorm())
+        at[i] = k;
+  }
+  std::array<int, 4> sign = {0, 0, 0, 0};
+  for (int j = 0; j < 4; ++j) {
+    const int a = at[(j + 3) % 4], b = at[j];
+    const bool along = b == (a + 1) % 4;
+    if (!along && a != (b + 1) % 4) return {0, 0, 0, 0};  // not a permutation of the corners
+    const SideEdge& e = q.edges[along ? b : a];
+    sign[j] = e.weak ? 0 : (along ? e.sign : -e.sign);
+  }
+  return sign;
+}
+
+}  // namespace
+
 std::vector<Detection> MakeDetections(const std::vector<Quad>& quads, const EdgeProbe& probe) {
   const PinholeRadtan* cam = probe.cam;
   std::vector<Detection> dets;
@@ -468,6 +494,7 @@ std::vector<Detection> MakeDetections(const std::vector<Quad>& quads, const Edge
       det.corners_px[i] =
           cam ? cam->DistortPixel(det.corners_undistorted[i]) : det.corners_undistorted[i];
     det.score = q.score;
+    det.side_sign = CanonicalSideSigns(q);
     if (probe.o.guess_class)
       det.object_class = GuessClass(probe.smooth, det.corners_px, q.aspect_w_h);
     dets.push_back(det);

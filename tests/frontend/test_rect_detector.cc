@@ -12,6 +12,7 @@
 #include "fsp/common/calibration.h"
 #include "fsp/common/observations_io.h"
 #include "fsp/frontend/detection_eval.h"
+#include "fsp/frontend/edge_refine.h"
 #include "fsp/frontend/rect_detector.h"
 #include "fsp/frontend/rect_geometry.h"
 #include "synthetic.h"
@@ -120,6 +121,34 @@ TEST(RectDetector, BlankAndNoiseImagesGiveNothing) {
   EXPECT_TRUE(RectDetector().Detect(flat).detections.empty());
   const cv::Mat noise = test::RenderQuads(640, 480, {}, 0.0, 8.0, 5);
   EXPECT_TRUE(RectDetector().Detect(noise).detections.empty());
+}
+
+// A detection's side polarities are those its edges have seen from its own corners: refining the
+// corners again with either polarity per side finds the same edges (the tracker relies on them when
+// its own search does not settle, ObjectTracker::Start). Checks the mapping from the grouping order
+// the refinement ran in to the canonical s1..s4 order, whose sides may run the other way round.
+TEST(RectDetector, SidePolaritiesAreTheEdgesOfTheReportedSides) {
+  int checked = 0, plus = 0, minus = 0;
+  for (uint32_t seed = 1; seed <= 6; ++seed) {
+    const test::SyntheticFrame fr = test::MakeSyntheticFrame(seed);
+    const cv::Mat smooth = EdgeRefineImage(fr.image);
+    for (const Detection& d : RectDetector().Detect(fr.image).detections) {
+      const EdgeRefinement e =
+          RefineCornersOnEdges(smooth, nullptr, d.corners_undistorted, 4.0, RectDetectorOptions());
+      if (!e.ok) continue;
+      ++checked;
+      for (int i = 0; i < 4; ++i) {
+        EXPECT_EQ(d.side_sign[i], e.side_sign[i]) << "seed " << seed << " side " << i;
+        plus += d.side_sign[i] > 0;
+        minus += d.side_sign[i] < 0;
+      }
+    }
+  }
+  std::printf("side polarities: %d detections, %d sides brighter outside, %d inside\n", checked,
+              plus, minus);
+  EXPECT_GE(checked, 12);
+  EXPECT_GT(plus, 0);
+  EXPECT_GT(minus, 0);
 }
 
 TEST(RectDetector, DeterministicAcrossCalls) {

@@ -11,6 +11,7 @@
 // the object seen from the front. Pixels follow OpenCV: integer coordinates are pixel centres.
 #pragma once
 
+#include <array>
 #include <string>
 #include <utility>
 #include <vector>
@@ -26,6 +27,10 @@ struct Detection {
   Corners corners_px;           // s1..s4, DISTORTED image pixels
   Corners corners_undistorted;  // s1..s4, undistorted pixels
   double score = 0.0;           // confidence in [0, 1] (edge support, decode margin)
+  // Per side (side i joins corners i-1 and i): the polarity of the edge the detector's refinement
+  // fitted it to, as EdgeRefinement::side_sign (+1: brighter towards the side's left normal); 0
+  // where unknown (AprilTags, a door's bottom taken without an edge).
+  std::array<int, 4> side_sign = {0, 0, 0, 0};
 
   // The back end's type: undistorted corners; object_id = tag_id (-1 until association assigns
   // one).

@@ -182,8 +182,12 @@ class ObjectTracker {
   // Starts tracking object `id` whose corners (undistorted px, s1..s4) are seen in `gray` (CV_8UC1,
   // the frame last given to Track, or the first frame): builds its model and makes it active. An id
   // with a model (active or dormant) gets a new one. Returns false when the quad is too small or
-  // leaves the image (nothing is started).
-  bool Start(int id, const cv::Mat& gray, const Corners& corners_undistorted);
+  // leaves the image (nothing is started). The side polarities the object's edges are refined with
+  // later are found on `gray` with either polarity per side; where that fails (a thin frame offers
+  // both, and a fit that mixes them is refused), `side_sign` (optional, per side as
+  // EdgeRefinement::side_sign, e.g. Detection::side_sign) is tried.
+  bool Start(int id, const cv::Mat& gray, const Corners& corners_undistorted,
+             const std::array<int, 4>& side_sign = {0, 0, 0, 0});
 
   // Tracks every active object into `gray`. `predicted` (optional) holds predicted corners per id
   // (undistorted px), e.g. the previous corners moved by the IMU's rotation; without an entry the
