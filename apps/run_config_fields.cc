@@ -126,6 +126,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.reid_map_decides", &f.reid_map_decides, kAny},
       {"frontend.reid_only_where_predicted", &f.reid_only_where_predicted, kAny},
       {"frontend.reacquire_predicted", &f.reacquire_predicted, kAny},
+      {"frontend.reacquire_margin_px", &f.reacquire_margin_px, kNonNegative},
       {"frontend.reacquire_over_candidates", &f.reacquire_over_candidates, kAny},
       {"frontend.relearn_outline_sharper", &f.relearn_outline_sharper, kNonNegative},
       {"frontend.correct_px", &f.correct_px, kNonNegative},

@@ -306,7 +306,7 @@ void FrontEnd::Impl::StartOrResume(const std::vector<Detection>& dets,
 void FrontEnd::Impl::ReacquirePredicted(FrameWork* w) {
   const FrontEndOptions& o = w->o;
   if (!o.reacquire_predicted || !w->prediction.map_known) return;
-  for (const auto* predicted : PredictedDormant(w->prediction, o.border_margin_px)) {
+  for (const auto* predicted : PredictedDormant(w->prediction, o.reacquire_margin_px)) {
     const auto& [id, pc] = *predicted;
     // Not where a live object is (a nested outline, a look-alike tracked there). A plain candidate
     // there is more likely this object coming back, seen anew (the blur clip's poster returning

@@ -28,15 +28,18 @@ PinholeRadtan Camera() {
 }
 
 // Frame k: a door on the left and a window on the right, both sliding right by a pixel per frame;
-// the window is absent (out of view) in frames [absent_from, absent_to).
-Frame MakeFrame(int k, int absent_from, int absent_to, std::vector<Corners>* truth) {
+// the window is absent (out of view) in frames [absent_from, absent_to), and back from absent_to
+// moved right by `back_dx` [m].
+Frame MakeFrame(int k, int absent_from, int absent_to, std::vector<Corners>* truth,
+                double back_dx = 0.0) {
   const double dx = 0.008 * k;  // ~1 px per frame at 4 m
   std::vector<test::SyntheticRect> rects;
   rects.push_back(
       {test::ProjectRect(0.9, 2.0, Vec3(-1.0 + dx, 0.1, 4.0), 0.35, 0.0, 0.0, kF, kCx, kCy), 150});
   if (k < absent_from || k >= absent_to)
     rects.push_back(
-        {test::ProjectRect(1.2, 1.0, Vec3(0.9 + dx, -0.5, 4.5), -0.5, 0.1, 0.0, kF, kCx, kCy),
+        {test::ProjectRect(1.2, 1.0, Vec3(0.9 + dx + (k >= absent_to ? back_dx : 0.0), -0.5, 4.5),
+                           -0.5, 0.1, 0.0, kF, kCx, kCy),
          220});
   truth->clear();
   for (const auto& r : rects) truth->push_back(r.corners);
@@ -142,7 +145,9 @@ TEST(FrontEndComponent, ReidentificationFollowsTheMapsPrediction) {
   // clip's objects are from it) may be a cut outline that merely looks like the object: once the
   // map is known it returns only where the map predicts it, not 100 px away (with
   // reid_away_from_border off; on, the default, such a detection resumes nothing, below).
+  // The map's own re-acquisition (reacquire_predicted) is off: this is about detections.
   FrontEndOptions border;
+  border.reacquire_predicted = false;
   border.border_margin_px = 400.0;
   border.confirm_away_from_border = false;
   border.reid_away_from_border = false;
@@ -246,6 +251,46 @@ TEST(FrontEndComponent, ReacquiredOverACandidateStartedOnIt) {
   // candidate's confirmation).
   EXPECT_EQ(first_back[true], 26);
   EXPECT_GT(first_back[false], 26) << "the clip does not tell the option apart";
+}
+
+// The window comes back with its right corners 4-5 px from the image border, where the map predicts
+// it. A detection there touches the border (border_margin_px) and resumes nothing, but the map's
+// prediction is no outline closed at the border: it is re-acquired in its first frame back when
+// the prediction need only be reacquire_margin_px (2 px) inside the image, and never while it is
+// in view with border_margin_px (8 px) asked of the prediction too.
+TEST(FrontEndComponent, ReacquiredWhereTheMapPredictsItNearTheBorder) {
+  const double back_dx = 1.31;  // the window's right corners at x 634-635 in frame 25
+  std::map<double, int> first_back;
+  for (const double margin : {2.0, 8.0}) {
+    FrontEndOptions options;
+    options.reacquire_margin_px = margin;
+    FrontEnd fe(Camera(), options);
+    std::vector<Corners> truth;
+    int window = -1;
+    first_back[margin] = -1;
+    for (int k = 0; k < 30; ++k) {
+      const Frame f = MakeFrame(k, 15, 25, &truth, back_dx);
+      FramePrediction p;
+      p.map_known = k >= 10;
+      if (p.map_known && window >= 0 && truth.size() > 1) p.objects.emplace_back(window, truth[1]);
+      const FrontEndResult r = fe.Process(f, p);
+      if (k < 8 || truth.size() < 2) continue;
+      if (k < 15) window = IdAt(r.observations, truth[1]);
+      if (k == 25) {
+        double right = 0.0;
+        for (const Vec2& c : truth[1]) right = std::max(right, c.x());
+        EXPECT_GT(right, 639.5 - 8.0);
+        EXPECT_LT(right, 639.5 - 2.0);
+      }
+      if (k >= 25 && first_back[margin] < 0 && IdAt(r.observations, truth[1]) == window)
+        first_back[margin] = k;
+    }
+    ASSERT_GE(window, options.first_rect_id);
+  }
+  std::printf("window back near the border in frame %d with a 2 px margin, %d with 8 px\n",
+              first_back[2.0], first_back[8.0]);
+  EXPECT_EQ(first_back[2.0], 25);
+  EXPECT_EQ(first_back[8.0], -1);
 }
 
 // Each observation says how far its corners can be trusted (ObjectObservation::sigma_px): corners

@@ -125,14 +125,19 @@ struct FrontEndOptions {
   // appearance with dormant objects predicted up to reid_reject_frac from it.
   bool reid_only_where_predicted = true;
   // Once the map is known, a dormant object the back end predicts wholly in view (corners at least
-  // border_margin_px inside the image, clear of live objects) that no detection resumed is looked
-  // for at its predicted corners: refined on the edges (ObjectTracker::Reacquire), within
+  // reacquire_margin_px inside the image, clear of live objects) that no detection resumed is
+  // looked for at its predicted corners: refined on the edges (ObjectTracker::Reacquire), within
   // reid_gate_frac of the prediction and with an appearance of at least
   // reid_min_similarity_predicted, it resumes there under its old id. Where no edge is found (a
   // thin frame blurred on a small view), at the predicted corners when the appearance there passes
   // the same bar, reporting from the next frame (the prediction is no measurement). A returning
   // object the detector does not report (a poster narrower than its minimum side) is picked up.
   bool reacquire_predicted = true;
+  // [px] How far inside the image the predicted corners must be for the re-acquisition. Not
+  // border_margin_px: that guards against a detection's outline closed by an inner edge at the
+  // border, which a map prediction is not; a returning object was left waiting a frame with a
+  // corner 3 px from the border (the blur clip's tag 30) until the detector found it further in.
+  double reacquire_margin_px = 2.0;
   // A plain candidate (not confirmed, not a tag) where such an object is predicted is that object
   // seen anew more often than another object: it does not count as a live object there, and is
   // dropped when the dormant object resumes.
