@@ -309,21 +309,40 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
   // the wall): the side moves there, within half the band of the outline, whatever lies inside
   // (a poster's line of text near its bottom). A bright band outside the side (a tag's white
   // margin) is not the object's.
-  const int out = nb[n_inward ? 0 : 1];
-  if (o.band_thin_px > 0.0 && out >= 0 && std::abs(vertex(out, -pol) - s_pk) <= o.band_thin_px &&
-      (out > pk ? pol : -pol) < 0.0) {  // the profile falls into the band: dark
-    int ex = -1;                        // the band's darkest sample
-    for (int i = std::min(pk, out) + 1; i < std::max(pk, out); ++i)
+  // The side to the darkest point of a thin dark band between its peak and edge NB (false: none).
+  auto to_thin_dark_band = [&](int nb_i) {
+    if (!(o.band_thin_px > 0.0) || nb_i < 0 ||
+        std::abs(vertex(nb_i, -pol) - s_pk) > o.band_thin_px ||
+        (nb_i > pk ? pol : -pol) >= 0.0)  // the profile rises into the band: bright
+      return false;
+    int ex = -1;  // the band's darkest sample
+    for (int i = std::min(pk, nb_i) + 1; i < std::max(pk, nb_i); ++i)
       if (ex < 0 || y[i] < y[ex]) ex = i;
-    if (ex >= 1 && ex <= N - 2) {
-      const double s_ex = vertex_of(y, ex, -1.0);
-      // Half a thin band and the blur's push on its inner edge: at most 2 px.
-      if (std::abs(s_ex - s_pk) <= 2.0) {
-        *offset = s_ex - s_pk;
-        return true;
-      }
-    }
-  }
+    if (ex < 1 || ex > N - 2) return false;
+    const double s_ex = vertex_of(y, ex, -1.0);
+    // Half a thin band and the blur's push on its inner edge: at most 2 px.
+    if (std::abs(s_ex - s_pk) > 2.0) return false;
+    *offset = s_ex - s_pk;
+    return true;
+  };
+  const int out = nb[n_inward ? 0 : 1], in = nb[n_inward ? 1 : 0];
+  if (to_thin_dark_band(out)) return true;
+  // A thin dark band inside the side (the side on a thin frame's outer edge, the weaker one: the
+  // frame's inner edge, against the bright paper, pushes its peak outward by up to ~1 px) where the
+  // two-edge model is refused: the band's darkest point, when it is thinner than the blur (its dip
+  // below the darker neighbour at most band_thin_inside_max_dip of its depth below the brighter
+  // one: a band as wide as the blur reaches its own grey) and the side's edge is a clear one.
+  auto thin_inside = [&]() {
+    if (!(o.band_thin_inside_max_dip > 0.0) || out >= 0 || in < 0 ||
+        std::abs(grad[in]) <= std::abs(grad[pk]) ||
+        std::abs(grad[pk]) < o.band_thin_inside_min_gradient)
+      return false;
+    double darkest = y[pk];
+    for (int i = std::min(pk, in) + 1; i < std::max(pk, in); ++i) darkest = std::min(darkest, y[i]);
+    const double lo = std::min(y.front(), y.back()), hi = std::max(y.front(), y.back());
+    const double dip = lo - darkest;
+    return dip > 0.0 && dip <= o.band_thin_inside_max_dip * (hi - darkest) && to_thin_dark_band(in);
+  };
   // None: no band. One on either side (a tag's black border between its white margin and its
   // white cells): their pushes oppose and the mix of cells along the side makes the profile no
   // model of it (the rendered room's small tags came out 0.1-0.2 px too large with it).
@@ -343,7 +362,7 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
   }
   th[2 * m + 1] = std::log(1.2);
   double rms = 0.0;
-  if (!FitEdges(s, y, &th, &rms)) return false;
+  if (!FitEdges(s, y, &th, &rms)) return thin_inside();
   const double sg = std::exp(th[2 * m + 1]);
   // A plausible fit: two clean steps (RMS residual within 5 % of the smaller step), a blur of
   // 0.85-1.5 px (the refinement's own smoothing is 1 px; a wider fitted blur means the profile is
@@ -351,13 +370,13 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
   // without this), the edges keeping their polarities and order, and the side's edge moving by at
   // most 1.5 px.
   if (!(sg >= 0.85 && sg <= 1.5) || !(rms <= 0.05 * std::min(std::abs(th[1]), std::abs(th[2]))))
-    return false;
+    return thin_inside();
   for (int e = 0; e < m; ++e) {
-    if ((e == main_edge ? pol : -pol) * th[1 + e] <= 0.0) return false;
-    if (e > 0 && th[1 + m + e] <= th[m + e]) return false;
+    if ((e == main_edge ? pol : -pol) * th[1 + e] <= 0.0) return thin_inside();
+    if (e > 0 && th[1 + m + e] <= th[m + e]) return thin_inside();
   }
   const double move = th[1 + m + main_edge] - s_pk;
-  if (std::abs(move) > 1.5) return false;
+  if (std::abs(move) > 1.5) return thin_inside();
   *offset = move;
   return true;
 }

@@ -141,10 +141,11 @@ void PrintTracking(const char* label, const eval::FrontendMetrics& f) {
 // The tracker's clips (assets/scenes/clip_*.yaml), from pixels in window mode, scored against the
 // ground-truth corners. Zoom/roll: a poster zooms 0.51-1.97x, banks to +-45 deg in a sideways dash,
 // leaves the view for 35 frames and returns; a plain door, a window, a tag. Measured: success
-// 577/581 (0.993; 553, 0.952, before the front end re-acquired dormant objects where the map
-// predicts them and put framed objects' sides on their outline; 549, 0.937, before the detector ran
-// while the map predicts a return), median 0.151 px, no box out of view, 5/5 returns
-// re-identified, 0 id switches.
+// 580/581 (0.998; 577 before a side on a thin dark frame's edge moved to the frame's centre,
+// rect.band_thin_px and rect.band_thin_inside_max_dip; 553, 0.952, before the front end re-acquired
+// dormant objects where the map predicts them and put framed objects' sides on their outline; 549,
+// 0.937, before the detector ran while the map predicts a return), median 0.151 px, no box out of
+// view, 5/5 returns re-identified, 0 id switches.
 TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
   const fs::path clip = RenderedClip("clip_zoom_roll");
   const RunResult r = RunAndEvaluate(clip.string(), test::ScratchDir() / "run", clip);
@@ -161,24 +162,26 @@ TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
 }
 
 // Motion blur (20 ms shutter: median 6 px, p90 17 px of smear on the poster). Measured: success
-// 381/409 (0.932; 377 before the blur test also kept a weakly held object off its smeared edges at
-// the start of a turn; 368 before an object lost in a fast move was looked for at its prediction by
-// its smeared reference, `tracker.fast_align_*`; 365 before a detection with a corner at the image
-// border could correct a track its edges had not fitted; 300/409 before the tracker's blur test,
-// `tracker.blur_sharpness_ratio`, kept the keypoint homography and refused detections' corrections
-// while the poster's sides are smeared; 342/409 before the blurred frames' alignment to the
-// reference, `tracker.blur_align_*`, held the poster through 1 s of zoom under blur, where the flow
-// had drifted 2-6 px), no box out of view, every return re-identified, 0 id switches. The misses
-// (28): the poster during and after the dash (reported 6-15 px off in 7 frames), the tag lost for
-// its 0.9 s dash, a poster held 8-11 px off at the start of the last turn, objects coming back in a
-// turn at 120-190 px per frame (smears longer than the object).
+// 391/409 (0.956; render seed 2 in `fsp bench`: 389/409; 381 before stop 29's relearnt
+// polarities and re-acquisition over a candidate; 377 before the blur test also kept a weakly held
+// object off its smeared edges at the start of a turn; 368 before an object lost in a fast move was
+// looked for at its prediction by its smeared reference, `tracker.fast_align_*`; 365 before a
+// detection with a corner at the image border could correct a track its edges had not fitted;
+// 300/409 before the tracker's blur test, `tracker.blur_sharpness_ratio`, kept the keypoint
+// homography and refused detections' corrections while the poster's sides are smeared; 342/409
+// before the blurred frames' alignment to the reference, `tracker.blur_align_*`, held the poster
+// through 1 s of zoom under blur, where the flow had drifted 2-6 px), no box out of view, every
+// return re-identified, 0 id switches. The misses (18): poster 1 in the dash (rolling 8 deg per
+// frame) and at its peak (6), as it decelerates at 3.35 s and as it comes back in the last turn;
+// tag 30 in the dash and as it comes back in the last turn at up to 174 px per frame (8, its smear
+// longer than the tag); poster 4 at the start of the last turn (2).
 TEST(PixelsEndToEnd, TrackingClipMotionBlur) {
   const fs::path clip = RenderedClip("clip_blur");
   const RunResult r = RunAndEvaluate(clip.string(), test::ScratchDir() / "run", clip);
   ASSERT_TRUE(r.metrics.frontend && r.metrics.frontend->success_rate);
   const eval::FrontendMetrics& f = *r.metrics.frontend;
   PrintTracking("blur", f);
-  EXPECT_GE(*f.success_rate, 0.91);
+  EXPECT_GE(*f.success_rate, 0.95);
   EXPECT_LE(f.corner_err_px.median, 0.5);
   EXPECT_EQ(f.boxes_out_of_view, 0u);
   EXPECT_EQ(f.reidentified, f.returns);

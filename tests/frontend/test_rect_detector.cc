@@ -543,5 +543,46 @@ TEST(RectDetector, ThinFramedPosterBottomAboveItsTextLine) {
   EXPECT_LT(best, 0.8);  // measured 0.67 (1.74 before)
 }
 
+// Poster 4 of the blur clip (render seed 2), 43 px wide with a 1.2 px dark frame, coming to rest
+// (8.95 s) and still (9.25 s): the crops of
+// ObjectTracker.StartTakesTheDetectorsPolaritiesOnAThinFrame (tests/frontend/data/README.md). Its
+// sides are found on the frame's outer edge, which the stronger inner edge (the bright paper)
+// pushes outward, and the two-edge model's fit is refused; with band_thin_inside_max_dip they move
+// to the frame's darkest point.
+TEST(RectDetector, ThinFrameSeenOnItsOuterEdgeIsNotDrawnLarger) {
+  const std::string dir = std::string(FSP_FRONTEND_TEST_DATA) + "/";
+  PinholeRadtan cam;  // the clip's camera, its principal point moved into the crop
+  cam.width = 130;
+  cam.height = 150;
+  cam.fx = cam.fy = 458.0;
+  cam.cx = 319.5 - 232.0;
+  cam.cy = 239.5 - 160.0;
+  struct Crop {
+    const char* file;
+    Corners gt;  // observations_gt.csv moved into the crop
+  };
+  const Crop crops[] = {
+      {"blur_poster4_8950000000_crop.png",
+       {Vec2(47.349, 112.250), Vec2(89.873, 110.595), Vec2(89.873, 48.405), Vec2(47.349, 46.750)}},
+      {"blur_poster4_9250000000_crop.png",
+       {Vec2(45.331, 112.263), Vec2(87.871, 110.594), Vec2(87.871, 48.406), Vec2(45.331, 46.737)}}};
+  RectDetectorOptions off;
+  off.band_thin_inside_max_dip = 0.0;
+  for (const Crop& c : crops) {
+    const cv::Mat img = cv::imread(dir + c.file, cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(img.empty()) << c.file;
+    auto worst = [&](const RectDetectorOptions& o) {
+      double best = 1e9;
+      for (const Detection& d : RectDetector(o).Detect(img, &cam).detections)
+        best = std::min(best, MaxCornerDistance(d.corners_undistorted, c.gt));
+      return best;
+    };
+    const double before = worst(off), after = worst(RectDetectorOptions());
+    std::printf("%s: worst corner %.2f px without the rule, %.2f with it\n", c.file, before, after);
+    EXPECT_GT(before, 1.0) << c.file;  // the push the rule is for
+    EXPECT_LT(after, 0.8) << c.file;
+  }
+}
+
 }  // namespace
 }  // namespace fsp::frontend

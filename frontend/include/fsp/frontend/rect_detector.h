@@ -229,6 +229,14 @@ struct RectDetectorOptions {
   // side moves to the band's centre (its grey's extremum), within half the band of the outline.
   // 0: off (the two-edge model instead, which keeps the side on the inner edge).
   double band_thin_px = 3.5;
+  // A dark band inside the side (the side on a thin frame's outer edge, pushed outward by the
+  // frame's stronger inner edge) whose peaks lie within band_thin_px, where the two-edge model is
+  // refused: the side moves to the band's darkest point when the band is thinner than the blur
+  // (its dip below the darker neighbour at most this fraction of its depth below the brighter one)
+  // and the side's gradient is at least band_thin_inside_min_gradient [grey levels / px].
+  // 0: off.
+  double band_thin_inside_max_dip = 0.6;
+  double band_thin_inside_min_gradient = 8.0;
   // T-junction test: a side's edge must end at its corners. Edge points are searched on the side's
   // line extended past each corner, from `continuation_start_px` (clear of the other side's
   // blurred edge) over `continuation_frac` x the side's length; a point counts when its gradient
