@@ -362,21 +362,20 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
   }
   th[2 * m + 1] = std::log(1.2);
   double rms = 0.0;
-  if (!FitEdges(s, y, &th, &rms)) return thin_inside();
+  const bool fitted = FitEdges(s, y, &th, &rms);
   const double sg = std::exp(th[2 * m + 1]);
   // A plausible fit: two clean steps (RMS residual within 5 % of the smaller step), a blur of
   // 0.85-1.5 px (the refinement's own smoothing is 1 px; a wider fitted blur means the profile is
   // something else, such as a cabinet's frame beside a faint inset line: moved 0.7 px inwards
   // without this), the edges keeping their polarities and order, and the side's edge moving by at
   // most 1.5 px.
-  if (!(sg >= 0.85 && sg <= 1.5) || !(rms <= 0.05 * std::min(std::abs(th[1]), std::abs(th[2]))))
-    return thin_inside();
-  for (int e = 0; e < m; ++e) {
-    if ((e == main_edge ? pol : -pol) * th[1 + e] <= 0.0) return thin_inside();
-    if (e > 0 && th[1 + m + e] <= th[m + e]) return thin_inside();
-  }
+  bool plausible =
+      fitted && sg >= 0.85 && sg <= 1.5 && rms <= 0.05 * std::min(std::abs(th[1]), std::abs(th[2]));
+  for (int e = 0; e < m && plausible; ++e)
+    plausible =
+        (e == main_edge ? pol : -pol) * th[1 + e] > 0.0 && (e == 0 || th[1 + m + e] > th[m + e]);
   const double move = th[1 + m + main_edge] - s_pk;
-  if (std::abs(move) > 1.5) return thin_inside();
+  if (!plausible || !(std::abs(move) <= 1.5)) return thin_inside();
   *offset = move;
   return true;
 }
