@@ -123,6 +123,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.reid_gate_frac", &f.reid_gate_frac, kNonNegative},
       {"frontend.reid_min_similarity_predicted", &f.reid_min_similarity_predicted, kNonNegative},
       {"frontend.reid_reject_frac", &f.reid_reject_frac, kNonNegative},
+      {"frontend.reid_max_shape_px", &f.reid_max_shape_px, kNonNegative},
       {"frontend.reid_map_decides", &f.reid_map_decides, kAny},
       {"frontend.reid_only_where_predicted", &f.reid_only_where_predicted, kAny},
       {"frontend.reacquire_predicted", &f.reacquire_predicted, kAny},

@@ -86,7 +86,9 @@ int FrontEnd::Impl::Reidentify(const cv::Mat& gray, const Detection& d,
     for (const auto& [pid, pc] : prediction.objects) {
       if (pid != id) continue;
       const double dist = MeanCornerDistanceBestShift(pc, d.corners_undistorted);
-      near = dist <= o.reid_gate_frac * ShortestSide(pc);
+      near = dist <= o.reid_gate_frac * ShortestSide(pc) &&
+             (!(o.reid_max_shape_px > 0.0) ||
+              ShapeDifference(pc, d.corners_undistorted) <= o.reid_max_shape_px);
       if (near && whole) need = o.reid_min_similarity_predicted;
       elsewhere = dist > o.reid_reject_frac * ShortestSide(pc);
     }

@@ -164,6 +164,16 @@ double MeanCornerDistanceBestShift(const Corners& a, const Corners& b, int* best
   return 0.25 * best;
 }
 
+double ShapeDifference(const Corners& a, const Corners& b) {
+  int s = 0;
+  MeanCornerDistanceBestShift(a, b, &s);
+  Vec2 mean = Vec2::Zero();
+  for (int i = 0; i < 4; ++i) mean += 0.25 * (b[(i + s) % 4] - a[i]);
+  double worst = 0.0;
+  for (int i = 0; i < 4; ++i) worst = std::max(worst, (b[(i + s) % 4] - a[i] - mean).norm());
+  return worst;
+}
+
 double ShortestSide(const Corners& c) {
   double s = std::numeric_limits<double>::infinity();
   for (int i = 0; i < 4; ++i) s = std::min(s, (c[(i + 1) % 4] - c[i]).norm());

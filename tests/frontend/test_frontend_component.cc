@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <map>
 
@@ -141,6 +142,30 @@ TEST(FrontEndComponent, ReidentificationFollowsTheMapsPrediction) {
     p.map_known = true;
     return p;
   })) << "not in the map";
+  // The map predicts where the object is and its shape: a drifting map moves the whole quad, but a
+  // detection of another shape (an outline closed by an inner edge) is not the object
+  // (reid_max_shape_px). Here the map's left side lies 12 px off the detection's (their shapes
+  // differ by 6 px); the map's own re-acquisition, which would find the edges near it, is off.
+  const auto predicted_as = [](const std::array<Vec2, 4>& move) {
+    return [move](int id, const Corners& c) {
+      FramePrediction p;
+      p.map_known = true;
+      p.objects.emplace_back(id, c);
+      for (int i = 0; i < 4; ++i) p.objects.back().second[i] += move[i];
+      return p;
+    };
+  };
+  const Vec2 none(0.0, 0.0), left(-12.0, 0.0), drift(8.0, -3.0);
+  FrontEndOptions no_reacquire;
+  no_reacquire.reacquire_predicted = false;
+  EXPECT_TRUE(WindowReturnsUnderItsId(predicted_as({drift, drift, drift, drift}), no_reacquire))
+      << "predicted 8.5 px off, the same shape";
+  EXPECT_FALSE(WindowReturnsUnderItsId(predicted_as({left, none, none, left}), no_reacquire))
+      << "predicted with another shape";
+  FrontEndOptions any_shape = no_reacquire;
+  any_shape.reid_max_shape_px = 0.0;
+  EXPECT_TRUE(WindowReturnsUnderItsId(predicted_as({left, none, none, left}), any_shape))
+      << "predicted with another shape, reid_max_shape_px off";
   // A detection touching the border (here: every detection, through a margin wider than the
   // clip's objects are from it) may be a cut outline that merely looks like the object: once the
   // map is known it returns only where the map predicts it, not 100 px away (with

@@ -85,5 +85,22 @@ TEST(RectGeometry, ContainsWithMarginToleratesSharedSides) {
   EXPECT_FALSE(ContainsWithMargin(shared, outer, 2.0));
 }
 
+// ShapeDifference: a translated copy (a drifting map's prediction) has the same shape whatever its
+// corner order; a quad with one side moved by 12 px (an outline closed by an inner edge) differs by
+// 6 px, half the move, at each corner.
+TEST(RectGeometry, ShapeDifferenceIgnoresTranslationNotAMovedSide) {
+  const Corners q = {Vec2(10, 110), Vec2(90, 108), Vec2(92, 10), Vec2(8, 12)};
+  Corners moved = q, rotated;
+  for (Vec2& c : moved) c += Vec2(7.0, -3.0);
+  for (int i = 0; i < 4; ++i) rotated[i] = moved[(i + 1) % 4];
+  EXPECT_NEAR(ShapeDifference(q, moved), 0.0, 1e-12);
+  EXPECT_NEAR(ShapeDifference(q, rotated), 0.0, 1e-12);
+  Corners side = q;
+  side[0].x() += 12.0;
+  side[3].x() += 12.0;
+  EXPECT_NEAR(ShapeDifference(q, side), 6.0, 1e-12);
+  EXPECT_NEAR(ShapeDifference(side, q), 6.0, 1e-12);
+}
+
 }  // namespace
 }  // namespace fsp::frontend

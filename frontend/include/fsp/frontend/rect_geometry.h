@@ -71,6 +71,10 @@ double CornerDistanceBestShift(const Corners& a, const Corners& b, int* best_shi
 double MeanCornerDistanceBestShift(const Corners& a, const Corners& b, int* best_shift = nullptr);
 // Largest distance between corresponding corners (same order).
 double MaxCornerDistance(const Corners& a, const Corners& b);
+// How much two quads differ in shape: the largest distance between corresponding corners (b
+// cyclically shifted as MeanCornerDistanceBestShift matches them) once their mean offset is
+// removed. 0 for a translated copy; a quad with one side moved by d differs by about d / 2.
+double ShapeDifference(const Corners& a, const Corners& b);
 
 // Shortest side length in pixels.
 double ShortestSide(const Corners& c);
