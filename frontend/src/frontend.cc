@@ -52,6 +52,7 @@ bool FrontEndOptions::Check(std::string* why) const {
           "edge_sigma_px, keypoint_sigma_px and edge_sigma_min_motion_px must be finite and >= 0");
   if (!(border_margin_px >= 0.0)) return fail("border_margin_px must be >= 0");
   if (!(reacquire_margin_px >= 0.0)) return fail("reacquire_margin_px must be >= 0");
+  if (!(reid_max_shape_px >= 0.0)) return fail("reid_max_shape_px must be >= 0");
   if (tag_scan_every < 0) return fail("tag_scan_every must be >= 0");
   if (first_rect_id < 0) return fail("first_rect_id must be >= 0");
   if (min_visible_corners < 2 || min_visible_corners > 4)

@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <limits>
 #include <map>
+#include <string>
 
 #include "fsp/common/error.h"
 #include "fsp/frontend/frontend.h"
@@ -316,6 +318,20 @@ TEST(FrontEndComponent, ReacquiredWhereTheMapPredictsItNearTheBorder) {
               first_back[2.0], first_back[8.0]);
   EXPECT_EQ(first_back[2.0], 25);
   EXPECT_EQ(first_back[8.0], -1);
+}
+
+// The options refuse what would make no sense, with a reason: a negative or NaN margin or bound.
+TEST(FrontEndComponent, OptionsCheckRefusesNegativeBounds) {
+  std::string why;
+  EXPECT_TRUE(FrontEndOptions().Check(&why)) << why;
+  FrontEndOptions o;
+  o.reacquire_margin_px = -1.0;
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("reacquire_margin_px"), std::string::npos) << why;
+  o = FrontEndOptions();
+  o.reid_max_shape_px = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(o.Check(&why));
+  EXPECT_NE(why.find("reid_max_shape_px"), std::string::npos) << why;
 }
 
 // Each observation says how far its corners can be trusted (ObjectObservation::sigma_px): corners
