@@ -186,7 +186,8 @@ ObjectClass GuessClass(const cv::Mat& smooth, const Corners& px, double aspect_w
   //    plain dark ring just inside the outline (the black border, 1/8 of the side: sampled at
   //    scale 0.875) inside a plain bright ring just outside it (the white margin, scale
   //    1.125), > 60 grey levels apart, and a patterned interior;
-  //  - door: tall (metric h/w 1.7..3.2), not strongly textured;
+  //  - door: tall (metric h/w 1.8..3.2: a standard door is 1.9-3.4; a tall cabinet of 1.7 voted
+  //    door and cabinet about evenly with 1.7), not strongly textured;
   //  - window: brighter than its surroundings (> 15 grey levels) with a frame (the ring just
   //    inside the outline, scale 0.95, darker than the interior by > 20 on every side) that is
   //    at most half as bright as the interior on every side (daylight through glass; mullions
@@ -205,7 +206,7 @@ ObjectClass GuessClass(const cv::Mat& smooth, const Corners& px, double aspect_w
                         ring_in_std < 0.25 * tag_contrast && ring_out_std < 0.25 * tag_contrast &&
                         in_std > 30.0 && h_over_w >= 0.67 && h_over_w <= 1.5;
   if (tag_like) return ObjectClass::kTag;
-  if (h_over_w >= 1.7 && h_over_w <= 3.2 && in_std < 40.0) return ObjectClass::kDoor;
+  if (h_over_w >= 1.8 && h_over_w <= 3.2 && in_std < 40.0) return ObjectClass::kDoor;
   if (h_over_w < 0.4 || h_over_w > 2.5) return ObjectClass::kUnknown;
   const bool framed = frame >= 0.0 && frame_max < in_mean - 20.0;
   const bool brighter = out_mean >= 0.0 && in_mean - out_mean > 30.0;
