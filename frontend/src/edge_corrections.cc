@@ -310,14 +310,19 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
   // (a poster's line of text near its bottom). A bright band outside the side (a tag's white
   // margin) is not the object's.
   // The side to the darkest point of a thin dark band between its peak and edge NB (false: none).
+  // The darkest sample strictly between the side's peak and edge NB (-1: none).
+  auto darkest_between = [&](int nb_i) {
+    int ex = -1;
+    for (int i = std::min(pk, nb_i) + 1; i < std::max(pk, nb_i); ++i)
+      if (ex < 0 || y[i] < y[ex]) ex = i;
+    return ex;
+  };
   auto to_thin_dark_band = [&](int nb_i) {
     if (!(o.band_thin_px > 0.0) || nb_i < 0 ||
         std::abs(vertex(nb_i, -pol) - s_pk) > o.band_thin_px ||
         (nb_i > pk ? pol : -pol) >= 0.0)  // the profile rises into the band: bright
       return false;
-    int ex = -1;  // the band's darkest sample
-    for (int i = std::min(pk, nb_i) + 1; i < std::max(pk, nb_i); ++i)
-      if (ex < 0 || y[i] < y[ex]) ex = i;
+    const int ex = darkest_between(nb_i);
     if (ex < 1 || ex > N - 2) return false;
     const double s_ex = vertex_of(y, ex, -1.0);
     // Half a thin band and the blur's push on its inner edge: at most 2 px.
@@ -337,8 +342,9 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
         std::abs(grad[in]) <= std::abs(grad[pk]) ||
         std::abs(grad[pk]) < o.band_thin_inside_min_gradient)
       return false;
-    double darkest = y[pk];
-    for (int i = std::min(pk, in) + 1; i < std::max(pk, in); ++i) darkest = std::min(darkest, y[i]);
+    const int ex = darkest_between(in);
+    if (ex < 0) return false;
+    const double darkest = std::min(y[pk], y[ex]);
     const double lo = std::min(y.front(), y.back()), hi = std::max(y.front(), y.back());
     const double dip = lo - darkest;
     return dip > 0.0 && dip <= o.band_thin_inside_max_dip * (hi - darkest) && to_thin_dark_band(in);

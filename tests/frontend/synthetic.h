@@ -10,9 +10,21 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "fsp/common/camera.h"
 #include "fsp/common/types.h"
 
 namespace fsp::test {
+
+// A pinhole camera without lens distortion.
+inline PinholeRadtan PinholeCamera(int width, int height, double f, double cx, double cy) {
+  PinholeRadtan c;
+  c.width = width;
+  c.height = height;
+  c.fx = c.fy = f;
+  c.cx = cx;
+  c.cy = cy;
+  return c;
+}
 
 struct SyntheticRect {
   Corners corners;  // s1..s4, pixels (OpenCV convention), counter-clockwise on screen

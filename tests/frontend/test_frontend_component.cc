@@ -21,13 +21,7 @@ namespace {
 constexpr double kF = 500.0, kCx = 319.5, kCy = 239.5;
 
 PinholeRadtan Camera() {
-  PinholeRadtan c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = c.fy = kF;
-  c.cx = kCx;
-  c.cy = kCy;
-  return c;
+  return test::PinholeCamera(640, 480, kF, kCx, kCy);
 }
 
 // Frame k: a door on the left and a window on the right, both sliding right by a pixel per frame;

@@ -20,6 +20,7 @@
 #include "fsp/common/observations_io.h"
 #include "fsp/frontend/object_tracker.h"
 #include "fsp/frontend/rect_detector.h"
+#include "rendered_crops.h"
 #include "test_util.h"
 #include "tracker_scenes.h"
 
@@ -350,23 +351,14 @@ TEST(ObjectTracker, OutlineRelearntAfterASmearedStart) {
 // without the detector's polarities never fits its edges and is carried by its keypoints with its
 // first view's error.
 TEST(ObjectTracker, StartTakesTheDetectorsPolaritiesOnAThinFrame) {
-  const std::string dir = std::string(FSP_FRONTEND_TEST_DATA) + "/";
-  const cv::Mat first = cv::imread(dir + "blur_poster4_8950000000_crop.png", cv::IMREAD_GRAYSCALE);
-  const cv::Mat still = cv::imread(dir + "blur_poster4_9250000000_crop.png", cv::IMREAD_GRAYSCALE);
+  const test::BlurPoster4Crops crops;
+  const cv::Mat& first = crops.coming_to_rest.image;
+  const cv::Mat& still = crops.still.image;
   ASSERT_FALSE(first.empty());
   ASSERT_FALSE(still.empty());
-  // The clip's camera (no lens distortion), its principal point moved into the crop.
-  PinholeRadtan cam;
-  cam.width = first.cols;
-  cam.height = first.rows;
-  cam.fx = cam.fy = 458.0;
-  cam.cx = 319.5 - 232.0;
-  cam.cy = 239.5 - 160.0;
-  // The rendered ground truth (observations_gt.csv) moved into the crop.
-  const Corners gt_first = {Vec2(47.349, 112.250), Vec2(89.873, 110.595), Vec2(89.873, 48.405),
-                            Vec2(47.349, 46.750)};
-  const Corners gt_still = {Vec2(45.331, 112.263), Vec2(87.871, 110.594), Vec2(87.871, 48.406),
-                            Vec2(45.331, 46.737)};
+  const PinholeRadtan& cam = crops.camera;
+  const Corners& gt_first = crops.coming_to_rest.gt;
+  const Corners& gt_still = crops.still.gt;
   const Detection* det = nullptr;
   const std::vector<Detection> dets = RectDetector().Detect(first, &cam).detections;
   for (const Detection& d : dets)

@@ -84,12 +84,7 @@ TEST(RectDetector, CornersComeOutInS1ToS4Order) {
 TEST(RectDetector, DistortedImageGivesStraightUndistortedSides) {
   // Render the quads in undistorted pixels, then warp the image with the lens model: sides become
   // curves. With the calibration the detector must return the undistorted corners.
-  PinholeRadtan cam;
-  cam.width = 640;
-  cam.height = 480;
-  cam.fx = cam.fy = 500.0;
-  cam.cx = 319.5;
-  cam.cy = 239.5;
+  PinholeRadtan cam = test::PinholeCamera(640, 480, 500.0, 319.5, 239.5);
   cam.distortion = {-0.25, 0.07, 0.0005, -0.0003};
   const test::SyntheticFrame ideal = test::MakeSyntheticFrame(3, 0.0, 0.0);
   cv::Mat map_x(480, 640, CV_32F), map_y(480, 640, CV_32F);
@@ -492,128 +487,6 @@ TEST(RectDetector, DoorWithoutBottomEdgeFoundByDoorHypotheses) {
   off.door_hypotheses = false;
   off.uncalibrated_door_reach_failures_allowed = 0;
   EXPECT_TRUE(RectDetector(off).Detect(img).detections.empty());
-}
-
-// Windows and cabinet fronts are both a dark frame round a plain panel: a window's pane (daylight)
-// is more than twice as bright as its frame on every side, a cabinet's body is not, even when it is
-// brighter than the wall.
-TEST(RectDetector, ClassGuessTellsAWindowFromACabinetFront) {
-  auto rect = [](double w, double h, const Vec3& centre, int grey) {
-    return test::SyntheticRect{test::ProjectRect(w, h, centre, 0.3, 0.1, 0.0, 500.0, 319.5, 239.5),
-                               grey};
-  };
-  const Vec3 win_c(-0.75, -0.2, 2.0), dark_c(0.0, 0.1, 2.0), light_c(0.7, 0.1, 2.0);
-  // 4 cm frames; the window 0.5 x 0.4 m, the cabinets 0.5 x 0.6 m (not door-shaped).
-  const std::vector<test::SyntheticRect> quads = {
-      rect(0.50, 0.40, win_c, 40),
-      rect(0.42, 0.32, win_c, 225),  // window: pane 5.6x its frame
-      rect(0.50, 0.60, dark_c, 60),
-      rect(0.42, 0.52, dark_c, 135),  // cabinet as bright as the wall
-      rect(0.50, 0.60, light_c, 110),
-      rect(0.42, 0.52, light_c, 190)};  // brighter than the wall
-  const cv::Mat img = test::RenderQuads(640, 480, quads, 0.8, 2.0, 11, 120);
-  const auto dets = RectDetector().Detect(img).detections;
-  auto class_at = [&](const Corners& c) {
-    for (const Detection& d : dets)
-      if (CornerDistanceBestShift(c, d.corners_px) < 0.5) return d.object_class;
-    ADD_FAILURE() << "no detection at the outline";
-    return ObjectClass::kUnknown;
-  };
-  EXPECT_EQ(class_at(quads[0].corners), ObjectClass::kWindow);
-  EXPECT_EQ(class_at(quads[2].corners), ObjectClass::kCabinet);
-  EXPECT_EQ(class_at(quads[4].corners), ObjectClass::kCabinet);
-}
-
-// A door is taller than 1.8 times its width (a standard door, 2.0-2.1 m high and at most 1.1 m
-// wide, is 1.9-3.4); a tall cabinet front of 1.75 (the hall flight's cabinet 20 is 1.0 x 1.7 m)
-// is a frame round a plain panel, not a door. With a bound of 1.7 its detections voted door and
-// cabinet about evenly (11 / 12 on the hall flight), and the map called it a door.
-TEST(RectDetector, ClassGuessTellsATallCabinetFromADoor) {
-  auto rect = [](double w, double h, const Vec3& centre, int grey) {
-    return test::SyntheticRect{test::ProjectRect(w, h, centre, 0.3, 0.1, 0.0, 500.0, 319.5, 239.5),
-                               grey};
-  };
-  const Vec3 door_c(-0.75, 0.0, 3.2), cabinet_c(0.75, 0.1, 3.2);
-  const std::vector<test::SyntheticRect> quads = {
-      rect(0.90, 2.10, door_c, 70),       // a plain door leaf
-      rect(1.00, 1.75, cabinet_c, 60),    // the cabinet's frame...
-      rect(0.84, 1.59, cabinet_c, 135)};  // ...round its plain body (8 cm frame)
-  const cv::Mat img = test::RenderQuads(640, 480, quads, 0.8, 2.0, 12, 120);
-  PinholeRadtan cam;
-  cam.width = 640;
-  cam.height = 480;
-  cam.fx = cam.fy = 500.0;
-  cam.cx = 319.5;
-  cam.cy = 239.5;
-  const auto dets = RectDetector().Detect(img, &cam).detections;
-  auto class_at = [&](const Corners& c) {
-    for (const Detection& d : dets)
-      if (CornerDistanceBestShift(c, d.corners_px) < 0.5) return d.object_class;
-    ADD_FAILURE() << "no detection at the outline";
-    return ObjectClass::kUnknown;
-  };
-  EXPECT_EQ(class_at(quads[0].corners), ObjectClass::kDoor);
-  EXPECT_EQ(class_at(quads[1].corners), ObjectClass::kCabinet);
-}
-
-// A crop (x 300-410, y 180-300) of frame 12.40 s of `fsp render assets/scenes/clip_zoom_roll.yaml
-// --seed 1`: poster 4, 40 px wide, its dark frame 1.2 px, a line of text near its bottom. The
-// bottom side's edge is the paper's (the stronger), with the frame outside it and the text's edge
-// inside it; the thin-band rule (band_thin_px) moves it onto the frame whatever lies inside.
-// Before (the rule after the "edges on both sides" check) the bottom was 1.6 px above the outline.
-TEST(RectDetector, ThinFramedPosterBottomAboveItsTextLine) {
-  const cv::Mat img = cv::imread(
-      std::string(FSP_FRONTEND_TEST_DATA) + "/zoom_roll_poster4_crop.png", cv::IMREAD_GRAYSCALE);
-  ASSERT_FALSE(img.empty());
-  // The rendered ground truth (observations_gt.csv) moved into the crop.
-  const Corners gt = {Vec2(35.945, 88.793), Vec2(75.401, 87.863), Vec2(75.401, 31.137),
-                      Vec2(35.945, 30.207)};
-  const auto dets = RectDetector().Detect(img).detections;
-  double best = 1e9;
-  for (const Detection& d : dets) best = std::min(best, MaxCornerDistance(d.corners_px, gt));
-  std::printf("thin-framed poster above its text line: worst corner %.2f px\n", best);
-  EXPECT_LT(best, 0.8);  // measured 0.67 (1.74 before)
-}
-
-// Poster 4 of the blur clip (render seed 2), 43 px wide with a 1.2 px dark frame, coming to rest
-// (8.95 s) and still (9.25 s): the crops of
-// ObjectTracker.StartTakesTheDetectorsPolaritiesOnAThinFrame (tests/frontend/data/README.md). Its
-// sides are found on the frame's outer edge, which the stronger inner edge (the bright paper)
-// pushes outward, and the two-edge model's fit is refused; with band_thin_inside_max_dip they move
-// to the frame's darkest point.
-TEST(RectDetector, ThinFrameSeenOnItsOuterEdgeIsNotDrawnLarger) {
-  const std::string dir = std::string(FSP_FRONTEND_TEST_DATA) + "/";
-  PinholeRadtan cam;  // the clip's camera, its principal point moved into the crop
-  cam.width = 130;
-  cam.height = 150;
-  cam.fx = cam.fy = 458.0;
-  cam.cx = 319.5 - 232.0;
-  cam.cy = 239.5 - 160.0;
-  struct Crop {
-    const char* file;
-    Corners gt;  // observations_gt.csv moved into the crop
-  };
-  const Crop crops[] = {
-      {"blur_poster4_8950000000_crop.png",
-       {Vec2(47.349, 112.250), Vec2(89.873, 110.595), Vec2(89.873, 48.405), Vec2(47.349, 46.750)}},
-      {"blur_poster4_9250000000_crop.png",
-       {Vec2(45.331, 112.263), Vec2(87.871, 110.594), Vec2(87.871, 48.406), Vec2(45.331, 46.737)}}};
-  RectDetectorOptions off;
-  off.band_thin_inside_max_dip = 0.0;
-  for (const Crop& c : crops) {
-    const cv::Mat img = cv::imread(dir + c.file, cv::IMREAD_GRAYSCALE);
-    ASSERT_FALSE(img.empty()) << c.file;
-    auto worst = [&](const RectDetectorOptions& o) {
-      double best = 1e9;
-      for (const Detection& d : RectDetector(o).Detect(img, &cam).detections)
-        best = std::min(best, MaxCornerDistance(d.corners_undistorted, c.gt));
-      return best;
-    };
-    const double before = worst(off), after = worst(RectDetectorOptions());
-    std::printf("%s: worst corner %.2f px without the rule, %.2f with it\n", c.file, before, after);
-    EXPECT_GT(before, 1.0) << c.file;  // the push the rule is for
-    EXPECT_LT(after, 0.8) << c.file;
-  }
 }
 
 }  // namespace

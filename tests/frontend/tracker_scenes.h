@@ -31,13 +31,7 @@ constexpr int kW = 640, kH = 480;
 constexpr double kF = 500.0, kCx = 319.5, kCy = 239.5;
 
 inline PinholeRadtan Camera() {
-  PinholeRadtan c;
-  c.width = kW;
-  c.height = kH;
-  c.fx = c.fy = kF;
-  c.cx = kCx;
-  c.cy = kCy;
-  return c;
+  return test::PinholeCamera(kW, kH, kF, kCx, kCy);
 }
 
 // A texture of smooth blobs plus sharp discs and boxes (corners for the flow, structure for ORB).
