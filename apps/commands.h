@@ -13,5 +13,6 @@ void AddEvalCommand(CLI::App& root);
 void AddDetectCommand(CLI::App& root);
 void AddRunCommand(CLI::App& root);
 void AddBenchCommand(CLI::App& root);
+void AddConvertCommand(CLI::App& root);
 
 }  // namespace fsp::apps

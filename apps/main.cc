@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   fsp::apps::AddDetectCommand(app);
   fsp::apps::AddRunCommand(app);
   fsp::apps::AddBenchCommand(app);
+  fsp::apps::AddConvertCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
