@@ -1,6 +1,6 @@
 // fsp eval --gt DATASET_OR_FILE --est RUN_DIR_OR_FILE [--align se3|posyaw|sim3] [--out
 // metrics.json]: trajectory, map, front-end and runtime metrics of a run against ground truth
-// (field names in the README, "Files").
+// (field names in docs/outputs.md).
 #include <cstdio>
 #include <filesystem>
 #include <fstream>

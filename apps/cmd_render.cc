@@ -66,7 +66,8 @@ void AddRenderCommand(CLI::App& root) {
       "render",
       "Render a benchmark sequence from a scene file: EuRoC-layout images, IMU and ground truth,\n"
       "objects_gt.json, observations_gt.csv, video.mp4 + imu.csv + calib.yaml, top_view.png\n"
-      "(scene file format: the comments of assets/scenes/default_room.yaml and the README)");
+      "(scene file format: the comments of assets/scenes/default_room.yaml and\n"
+      "sim/include/fsp/sim/scene.h)");
   sub->add_option("SCENE", args->scene, "scene file (YAML)")->required();
   sub->add_option("--out", args->out, "output folder (created)")->required();
   sub->add_option("--seed", args->seed,

@@ -182,7 +182,8 @@ void AddRunCommand(CLI::App& root) {
   sub->add_option("--imu", args->request.source.imu,
                   "IMU csv t_ns,wx,wy,wz,ax,ay,az (overrides the folder's)");
   sub->add_option("--config", args->config,
-                  "YAML configuration (assets/config/default.yaml lists every key)");
+                  "YAML configuration (assets/config/default.yaml: the options a user may change; "
+                  "--print-config lists every key)");
   sub->add_option("--frontend", args->request.frontend,
                   "front end: rect (rectangles + tag decoding), apriltag, gt-corners (rendered "
                   "sequences) or corners (--corners FILE)")

@@ -72,7 +72,7 @@ class GtCornersFrontend : public CornerFileFrontend {
 
 // The corners front end. CORNERS: the columns of observations_gt.csv, but the corners are where a
 // detector found them in the raw image (distorted pixels, OpenCV convention: integer coordinates
-// are pixel centres), in s1..s4 order (README, "Conventions"); they are undistorted with
+// are pixel centres), in s1..s4 order (docs/conventions.md); they are undistorted with
 // CALIBRATION's camera. t_ns is the frame's time as INPUT lists it (EuRoC cam0/data.csv, image
 // name, video clock or --frame-times); the calibration's time_offset_ns is added, as it is to the
 // frames. OBJECTS (optional, ReadObjectClasses' layout) names the classes, which give the

@@ -1,8 +1,8 @@
 // The configuration of `fsp run` (a YAML file, --config): estimator options, IMU noise overrides
-// and front-end options. assets/config/default.yaml lists every key with its default and a comment;
-// the defaults themselves come from the C++ Options structs (one source of truth): a key absent
-// from the file keeps the struct's default, and a test checks that default.yaml parses to the
-// default structs.
+// and front-end options. The defaults come from the C++ Options structs (one source of truth, each
+// option documented there with its reason): a key absent from the file keeps the struct's default.
+// assets/config/default.yaml holds the options a user may change, with the same values (a test
+// checks it); `fsp run --print-config` (ToYaml) lists every key.
 //
 //   estimator:            # fsp::backend::EstimatorOptions (estimator.h)
 //     static_init: {...}  # StaticInitOptions
@@ -75,7 +75,7 @@ RunConfig ReadRunConfig(const std::string& path);
 // The same from YAML text; `name` is used in messages.
 RunConfig ParseRunConfig(const std::string& yaml_text, const std::string& name);
 
-// Every key of the config ("estimator.window_size", ...), in the order of default.yaml.
+// Every key of the config ("estimator.window_size", ...), in the order of --print-config.
 std::vector<std::string> RunConfigKeys();
 // Whether every key has the same value in A and B (doubles compared exactly).
 bool SameValues(const RunConfig& a, const RunConfig& b, std::string* first_difference = nullptr);

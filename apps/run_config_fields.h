@@ -40,9 +40,9 @@ struct Field {
   Range range;
 };
 
-// The table of every config key, bound to the members of C. The order is the order of default.yaml
-// and of ToYaml. A new Options field needs one line in run_config_fields.cc (and one in
-// assets/config/default.yaml).
+// The table of every config key, bound to the members of C. The order is the order of ToYaml
+// (--print-config). A new Options field needs one line in run_config_fields.cc (and one in
+// assets/config/default.yaml when a user may change it).
 std::vector<Field> Fields(RunConfig& c);
 
 }  // namespace fsp::apps::run_config_internal

@@ -1,4 +1,4 @@
-// Writers of a run's output folder (the README's "Files"): map.json and run.json, plus the
+// Writers of a run's output folder (docs/outputs.md): map.json and run.json, plus the
 // timing statistics they report. trajectory.tum and observations.csv use the common writers
 // (WriteTum, WriteCornerRows).
 #pragma once

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Converts AprilGrid corner tracks (per-frame csv files of another detector, without images) into an
-input for `fsp run --frontend corners` (README, "External corners").
+input for `fsp run --frontend corners` (docs/inputs.md, "External corners").
 
     scripts/aprilgrid_to_corners.py DATA OUT --extrinsics SENSOR_YAML
 

@@ -22,7 +22,7 @@ inline std::string TestDataDir() {
   if (::fsp::test::TestDataDir().empty() || !std::filesystem::exists(var)) \
   GTEST_SKIP() << "test data '" << (sub)                                   \
                << "' not found: set FSP_TEST_DATA to the shared data "     \
-                  "directory (see tests/README.md)"
+                  "directory (see docs/development.md)"
 
 // Where the tests write: test_scratch/ in this build tree.
 inline std::filesystem::path ScratchRoot() {

@@ -189,7 +189,7 @@ nlohmann::ordered_json ToJson(const Metrics& m) {
   if (m.trajectory) {
     const TrajectoryMetrics& t = *m.trajectory;
     nlohmann::ordered_json b;
-    // The README's fields first, then the rest of the statistics.
+    // The fields of docs/outputs.md first, then the rest of the statistics.
     b["pairs"] = t.pairs;
     b["align"] = ToString(t.alignment.mode);
     b["ate_rmse_m"] = t.ate.rmse;

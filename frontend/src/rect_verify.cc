@@ -173,9 +173,9 @@ void RingStats(const cv::Mat& img, const Corners& px, double scale, double* mean
   *stddev = std::sqrt(std::max(0.0, s2 / n - *mean * *mean));
 }
 
-// Class cues (see README of the front end): metric aspect h/w from Zhang-He, brightness against
-// the surroundings, interior texture. Statistics on the smoothed image at the distorted corners
-// `px`.
+// Class cues (frontend/README.md, "Class guess"): metric aspect h/w from Zhang-He, brightness
+// against the surroundings, interior texture. Statistics on the smoothed image at the distorted
+// corners `px`.
 ObjectClass GuessClass(const cv::Mat& smooth, const Corners& px, double aspect_w_h) {
   double in_mean, in_std, out_mean, out_std;
   QuadStats(smooth, px, 0.8, &in_mean, &in_std);

@@ -1,8 +1,8 @@
 // Real corner tracks through the corners front end: the EuRoC camera-IMU calibration run's
 // AprilGrid detections (36 tags, 72 s, no images; $FSP_TEST_DATA/euroc_imu_april_corners)
-// converted by scripts/aprilgrid_to_corners.py as the README says. The converted file is accepted
-// whole (every time a frame, the tags in s1..s4 order), and `fsp run` refuses clearly: the camera
-// moves from the first frame and the estimator initialises from a still start only.
+// converted by scripts/aprilgrid_to_corners.py as docs/inputs.md says. The converted file is
+// accepted whole (every time a frame, the tags in s1..s4 order), and `fsp run` refuses clearly: the
+// camera moves from the first frame and the estimator initialises from a still start only.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -37,7 +37,7 @@ int Convert(const std::string& data, const std::string& extrinsics, const fs::pa
 }
 
 // Signed area of the quad in image coordinates (v down): negative for s1..s4 = bottom-left,
-// bottom-right, top-right, top-left of a face seen from the front (README, "Conventions").
+// bottom-right, top-right, top-left of a face seen from the front (docs/conventions.md).
 double SignedArea(const Corners& c) {
   double a = 0.0;
   for (int j = 0; j < 4; ++j) {

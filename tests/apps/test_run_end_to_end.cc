@@ -121,7 +121,7 @@ TEST(RunEndToEnd, WindowModeWithOnePixelNoise) {
   ASSERT_TRUE(r.metrics.trajectory.has_value());
   ASSERT_TRUE(r.metrics.objects.has_value());
   Print("window, 1 px", r);
-  // Outputs as the README ("Commands", Files) names them.
+  // Outputs as docs/outputs.md names them.
   EXPECT_EQ(r.run["frames"].get<int>(), 200);
   EXPECT_GT(r.run["keyframes"].get<int>(), 0);
   // Objects partly in view reach the window through the corners they show.

@@ -4,7 +4,7 @@
 //   bench_detect [--benchmark_repetitions=N] [Google Benchmark flags]
 //
 // Frames: the synthetic 640x480 frame of the tests (4 rectangles), and -- when the shared test data
-// is found ($FSP_TEST_DATA or ../shared/data) -- a 640x480 crop of a real EuRoC in-flight frame
+// is found ($FSP_TEST_DATA) -- a 640x480 crop of a real EuRoC in-flight frame
 // (board, door, windows, clutter), the ten calibrated in-flight EuRoC frames (752x480) and an
 // AprilTag photo of the apriltag repository (799x533, 12 tags).
 #include <algorithm>

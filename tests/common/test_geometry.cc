@@ -1,4 +1,4 @@
-// Pins the geometry conventions of README "Conventions" and checks exp/log, Jacobians and
+// Pins the geometry conventions of docs/conventions.md and checks exp/log, Jacobians and
 // Plus/Minus.
 #include <random>
 

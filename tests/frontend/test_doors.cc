@@ -1,4 +1,4 @@
-// Rectangle detector on real door photographs (../shared/data/doors_dev: 35 photos, one whole door
+// Rectangle detector on real door photographs ($FSP_TEST_DATA/doors_dev: 35 photos, one whole door
 // each, hand-drawn loose boxes in YOLO format, no calibration). Scores overlap only: a door is
 // found when the axis-aligned bounding box of a reported quadrilateral has IoU >= 0.6 with the
 // labelled door box; every other reported rectangle counts as an extra. Prints a table per photo

@@ -1,4 +1,4 @@
-# Run by CTest (tests/install/CMakeLists.txt): checks that the README shows the example's code,
+# Run by CTest (tests/install/CMakeLists.txt): checks that docs/library.md shows the example's code,
 # installs the build into WORK_DIR/prefix, builds the example apps/examples/minimal against it as a
 # project of its own, renders 4 s of a scene and runs the example on it. Fails on the first step
 # that fails, naming it.
@@ -16,12 +16,12 @@ function(step name)
   set(step_output "${out}" PARENT_SCOPE)
 endfunction()
 
-# The README shows the example's code: it must be this file, word for word.
+# docs/library.md shows the example's code: it must be this file, word for word.
 file(READ ${FSP_SOURCE_DIR}/apps/examples/minimal/main.cc example_code)
-file(READ ${FSP_SOURCE_DIR}/README.md readme)
-string(FIND "${readme}" "```cpp\n${example_code}```" at)
+file(READ ${FSP_SOURCE_DIR}/docs/library.md doc)
+string(FIND "${doc}" "```cpp\n${example_code}```" at)
 if(at EQUAL -1)
-  message(FATAL_ERROR "README.md (\"Using FSP-SLAM as a library\") does not show "
+  message(FATAL_ERROR "docs/library.md does not show "
                       "apps/examples/minimal/main.cc as it is")
 endif()
 

@@ -1,7 +1,7 @@
 // The visual-inertial estimator: keyframe states (pose, velocity, IMU biases) and rectangle
 // landmarks (FSP, or the FHP baseline) in one Ceres problem, fed with IMU samples and per-frame
-// object observations (undistorted corners). The README's "Architecture" and "Conventions" give the
-// frames.
+// object observations (undistorted corners). The README's "How it works" and docs/conventions.md
+// give the frames.
 //
 // Modes:
 //  - kWindow (online): keyframes every keyframe_interval_s (default 0.1 s), the newest frame
@@ -292,7 +292,7 @@ struct EstimatorOptions {
   bool Check(std::string* why) const;
 };
 
-// An object as reported in map.json (the README's "Files").
+// An object as reported in map.json (docs/outputs.md).
 struct MapObject {
   int id = -1;
   ObjectClass object_class = ObjectClass::kUnknown;

@@ -20,9 +20,9 @@
 // Near fronto-parallel views (small or far targets) the tilt of the plane is ill-conditioned and
 // noise can flip the normal. For objects known to be vertical, pass the "up" direction (−gravity)
 // in F: the initial R_F_O is then replaced by the nearest rotation whose y axis (the height edge,
-// which points up for the README's corner order) is exactly "up" — x from n2 made horizontal — and
-// the refinement adds a soft prior |y_O − up_F| / σ_up. The tilt about the vertical axis stays as
-// the image says; later views decide the rest.
+// which points up for the corner order of docs/conventions.md) is exactly "up" — x from n2 made
+// horizontal — and the refinement adds a soft prior |y_O − up_F| / σ_up. The tilt about the
+// vertical axis stays as the image says; later views decide the rest.
 #pragma once
 
 #include <optional>

@@ -1,7 +1,7 @@
 // Input sources: every kind of recording yields frames and IMU samples in time order through one
 // interface (Source), so the pipeline never knows where its data came from.
 //
-// Kinds of INPUT (README, "Commands"):
+// Kinds of INPUT (docs/inputs.md):
 //  - EuRoC layout: DIR/mav0/{cam0,imu0}/... or DIR being mav0 itself. cam0/data.csv
 //    ("#timestamp [ns],filename") + cam0/data/*, imu0/data.csv, cam0/sensor.yaml (+
 //    imu0/sensor.yaml for the IMU noise). --calib and --imu override the files of the folder when

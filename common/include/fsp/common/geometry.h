@@ -1,6 +1,6 @@
 // Rotations and rigid transforms as value types.
 //
-// Conventions (README "Conventions"):
+// Conventions (docs/conventions.md):
 //  - T_A_B maps coordinates in frame B into frame A: p_A = T_A_B * p_B.
 //  - Quaternions are Eigen's (Hamilton, stored x, y, z, w). Never mix orders; EuRoC csv files store
 //    w, x, y, z and are converted at the reader.

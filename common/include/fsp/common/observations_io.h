@@ -1,4 +1,4 @@
-// Per-frame corner observations as csv (README, "Commands", Files):
+// Per-frame corner observations as csv (docs/outputs.md):
 //   observations_gt.csv: t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4,fully_visible,visible_corners
 //                        (rendered ground truth; visible_corners: bit j-1 set when corner j is in
 //                        the image and not hidden, 0..15; files without it are read too)

@@ -1,5 +1,5 @@
 // `fsp eval`: finds what a ground truth and an estimate hold, computes every metric block that both
-// sides allow, and writes metrics.json (field names in the README, "Files"). A block that cannot be
+// sides allow, and writes metrics.json (field names in docs/outputs.md). A block that cannot be
 // computed is absent.
 #pragma once
 

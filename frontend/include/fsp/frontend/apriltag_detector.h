@@ -1,7 +1,7 @@
 // AprilTag detector (libapriltag 3) returning the same Detection type as the rectangle detector.
 //
 // Corners: libapriltag's det->p[0..3] go counter-clockwise on screen starting at the tag's own
-// bottom-left corner, which for an upright tag is s1..s4 (README, "Conventions"), so the tag's
+// bottom-left corner, which for an upright tag is s1..s4 (docs/conventions.md), so the tag's
 // decoded orientation fixes the order (not the image position). libapriltag's pixel coordinates put
 // the centre of pixel (0,0) at (0.5, 0.5); 0.5 is subtracted so integer = pixel centre (OpenCV).
 // tag_id = the decoded id; object_class = kTag; score = decision margin / (decision margin + 50),

@@ -7,7 +7,7 @@
 //  - corners_undistorted: undistorted pixels (same K, no lens distortion), what the back end
 //  consumes
 //    (ObjectObservation.corners). Without a calibration both are identical.
-// Corner order is s1..s4 (README, "Conventions"): bottom-left, bottom-right, top-right, top-left of
+// Corner order is s1..s4 (docs/conventions.md): bottom-left, bottom-right, top-right, top-left of
 // the object seen from the front. Pixels follow OpenCV: integer coordinates are pixel centres.
 #pragma once
 

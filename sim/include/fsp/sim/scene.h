@@ -29,7 +29,7 @@
 
 namespace fsp::sim {
 
-// One rectangle of the scene. Corners s1..s4 in W (README, "Conventions": s1 = (0,0,0), s2 =
+// One rectangle of the scene. Corners s1..s4 in W (docs/conventions.md: s1 = (0,0,0), s2 =
 // (w,0,0), s3 = (w,h,0), s4 = (0,h,0) in O; x along the width, y along the height, z = x cross y
 // out of the visible face).
 struct SceneObject {

@@ -1,4 +1,4 @@
-// Writes a rendered sequence (README, "Commands", Files): EuRoC layout with images, IMU and
+// Writes a rendered sequence (docs/outputs.md): EuRoC layout with images, IMU and
 // ground truth, objects_gt.json, observations_gt.csv, video.mp4 + imu.csv + calib.yaml, and
 // top_view.png.
 //
