@@ -25,6 +25,34 @@ Vec4 Flat(const Waypoint& w) {
   return Vec4(w.p_W.x(), w.p_W.y(), w.p_W.z(), w.yaw_rad);
 }
 
+// Binomial coefficient n over k.
+double Binomial(int n, int k) {
+  double b = 1.0;
+  for (int i = 1; i <= k; ++i) b = b * (n - k + i) / i;
+  return b;
+}
+
+// The basis matrix of a uniform B-spline of degree D (order K = D + 1) in the power basis (Qin,
+// "General matrix representations for B-splines", The Visual Computer 16, 2000, eq. 3): on a
+// segment, y(s) = sum_i s^i sum_j M(i, j) c_j over its K control points, s in [0, 1], with
+//   M(i, j) = C(K-1, i) / (K-1)! sum_{l=j}^{K-1} (-1)^(l-j) C(K, l-j) (K-1-l)^(K-1-i).
+template <int D>
+Eigen::Matrix<double, D + 1, D + 1> UniformBSplineBasis() {
+  constexpr int K = D + 1;
+  double factorial = 1.0;
+  for (int i = 2; i < K; ++i) factorial *= i;
+  Eigen::Matrix<double, K, K> M;
+  for (int i = 0; i < K; ++i) {
+    for (int j = 0; j < K; ++j) {
+      double sum = 0.0;
+      for (int l = j; l < K; ++l)
+        sum += ((l - j) % 2 ? -1.0 : 1.0) * Binomial(K, l - j) * std::pow(K - 1 - l, K - 1 - i);
+      M(i, j) = Binomial(K - 1, i) / factorial * sum;
+    }
+  }
+  return M;
+}
+
 bool IsStill(const Waypoint& a, const Waypoint& b) {
   return (a.p_W - b.p_W).norm() < 1e-9 && std::abs(a.yaw_rad - b.yaw_rad) < 1e-12;
 }
@@ -115,12 +143,17 @@ Trajectory Trajectory::FromWaypoints(const std::vector<Waypoint>& waypoints,
     traj.segments_.push_back(seg);
   }
 
+  traj.CheckThrust(options);
+  return traj;
+}
+
+void Trajectory::CheckThrust(const TrajectoryOptions& options) const {
   // The flight must never need (near) free fall: check the thrust densely.
-  for (const Segment& seg : traj.segments_) {
+  for (const Segment& seg : segments_) {
     constexpr int kChecks = 64;
     for (int j = 0; j <= kChecks; ++j) {
       const double t = seg.t0 + seg.duration * j / kChecks;
-      const Vec3 a = traj.FlatDerivative(t, 2).head<3>();
+      const Vec3 a = FlatDerivative(t, 2).head<3>();
       const double thrust = (a - GravityW()).norm();
       if (thrust < options.min_thrust) {
         std::ostringstream msg;
@@ -130,7 +163,6 @@ Trajectory Trajectory::FromWaypoints(const std::vector<Waypoint>& waypoints,
       }
     }
   }
-  return traj;
 }
 
 Trajectory Trajectory::FromPoses(const std::vector<StampedPose>& poses,
@@ -187,7 +219,45 @@ Trajectory Trajectory::FromPoses(const std::vector<StampedPose>& poses,
     w.p_W = (1.0 - alpha) * poses[lo].T_W_B.translation() + alpha * poses[hi].T_W_B.translation();
     w.yaw_rad = (1.0 - alpha) * yaw[lo] + alpha * yaw[hi];
   }
-  return FromWaypoints(waypoints, options);
+  return FromControlPoints(waypoints, options);
+}
+
+Trajectory Trajectory::FromControlPoints(const std::vector<Waypoint>& control,
+                                         const TrajectoryOptions& options) {
+  // Control points c_m: the first and the last repeated kDegree more times, so the first and
+  // the last segment are exact hovers. Segment j (duration T = pose_knot_s) starts at j T:
+  //   y(s) = [1 s ... s^5] M [c_j .. c_{j+5}]^T.
+  constexpr int kDegree = 5;
+  std::vector<Vec4> c;
+  for (int i = 0; i < kDegree; ++i) c.push_back(Flat(control.front()));
+  for (const Waypoint& w : control) c.push_back(Flat(w));
+  for (int i = 0; i < kDegree; ++i) c.push_back(Flat(control.back()));
+  const Eigen::Matrix<double, kDegree + 1, kDegree + 1> M = UniformBSplineBasis<kDegree>();
+  const double T = options.pose_knot_s;
+  Trajectory traj;
+  for (size_t j = 0; j + kDegree < c.size(); ++j) {
+    Segment seg;
+    seg.t0 = static_cast<double>(j) * T;
+    seg.duration = T;
+    Eigen::Matrix<double, kDegree + 1, 4> P;
+    for (int m = 0; m <= kDegree; ++m) P.row(m) = c[j + m].transpose();
+    seg.c.setZero();
+    seg.c.topRows<kDegree + 1>() = M * P;
+    traj.segments_.push_back(seg);
+  }
+  // The knots: the curve at the segments' ends (t_begin, t_end and the hover outside the span).
+  for (size_t j = 0; j <= traj.segments_.size(); ++j) {
+    const Segment& seg = traj.segments_[std::min(j, traj.segments_.size() - 1)];
+    const Vec4 y = j < traj.segments_.size() ? Vec4(seg.c.row(0).transpose())
+                                             : Vec4(seg.c.colwise().sum().transpose());
+    Waypoint w;
+    w.t_s = static_cast<double>(j) * T;
+    w.p_W = y.head<3>();
+    w.yaw_rad = y[3];
+    traj.knots_.push_back(w);
+  }
+  traj.CheckThrust(options);
+  return traj;
 }
 
 const Trajectory::Segment& Trajectory::SegmentAt(double t) const {

@@ -11,7 +11,7 @@
 // top-right, top-left seen from the front; y up), its front being the side that faces the flight
 // (the mean body position). The class follows from the geometry, as the logs carry none: raised
 // off the floor (lowest corner above 0.3 m) a window; standing on it, at least 1.8 m tall and at
-// most 1.2 m wide a door; any other on the floor a cabinet. That gives 11 doors, 9 windows and 4
+// most 1.2 m wide a door; any other on the floor a cabinet. That gives 9 doors, 9 windows and 4
 // cabinets where the paper counts 12, 8 and 2; the class only sets an object's first depth guess.
 #pragma once
 

@@ -53,8 +53,8 @@ struct TrajectoryOptions {
   // before resampling. Larger removes more jitter (hand-held recordings) but cuts corners of fast
   // motion.
   double pose_smoothing_s = 0.15;
-  // Pose files: knot spacing of the resampled spline [s]. Smaller follows the file more closely but
-  // keeps more of the file's noise in the acceleration (and so in roll/pitch and the IMU).
+  // Pose files: control-point spacing of the B-spline [s]. Smaller follows the file more closely
+  // but keeps more of the file's noise in the acceleration (and so in roll/pitch and the IMU).
   double pose_knot_s = 0.1;
   // Smallest thrust (|a_W - g_W|) the flight may demand [m/s^2]: below it the attitude is undefined
   // (free fall). Trajectories that need less are rejected.
@@ -74,11 +74,18 @@ class Trajectory {
   // do not increase, or the flight would need less thrust than options.min_thrust.
   static Trajectory FromWaypoints(const std::vector<Waypoint>& waypoints,
                                   const TrajectoryOptions& options = TrajectoryOptions());
-  // Poses (e.g. a TUM file), shifted so the first is at t = 0, smoothed and resampled into
-  // waypoints (position and yaw of the body x axis) every pose_knot_s. Roll and pitch are not taken
-  // from the file: they follow the flight model. Like any waypoint trajectory it starts and ends at
-  // rest (the first and last knot interval ease in and out). Throws InputError as above, or when
-  // the poses span less than two knots.
+  // Poses (e.g. a TUM file), shifted so the first is at t = 0, smoothed (a Gaussian of
+  // pose_smoothing_s) and sampled every pose_knot_s into the control points of a uniform quintic
+  // B-spline in (x, y, z, yaw): C4, so jerk and angular velocity are smooth, and no derivative is
+  // imposed at the knots. (Hermite segments through such dense knots, with their jerk zero at every
+  // knot, shook the attitude at the knot rate: a recorded flight became a 10-30 Hz roll and pitch
+  // vibration of 0.3 rad/s rms that a 100 Hz IMU cannot integrate, 0.07 deg of gyro-integration
+  // error per 0.1 s, 20 times the gyro noise; the estimator took it for a 12 % scale error.) The
+  // first and last control points are repeated, so the flight starts and ends with a hover of 3
+  // knots: the curve passes the pose of file time t at t + 3 pose_knot_s (0.3 s at the default)
+  // and ends 6 knots after the file. Roll and pitch are not taken from
+  // the file: they follow the flight model. Throws InputError as above, or when the poses span
+  // less than two knots.
   static Trajectory FromPoses(const std::vector<StampedPose>& poses,
                               const TrajectoryOptions& options = TrajectoryOptions());
 
@@ -103,6 +110,11 @@ class Trajectory {
   std::vector<Waypoint> knots_;
   std::vector<Segment> segments_;
   const Segment& SegmentAt(double t) const;
+  // FromPoses' B-spline through the smoothed knots (control points every options.pose_knot_s).
+  static Trajectory FromControlPoints(const std::vector<Waypoint>& control,
+                                      const TrajectoryOptions& options);
+  // Throws InputError where the flight needs less thrust than options.min_thrust.
+  void CheckThrust(const TrajectoryOptions& options) const;
 };
 
 }  // namespace fsp::sim
