@@ -103,7 +103,7 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
         fs::is_directory(fs::path(request.source.input) / "mav0"))
       throw InputError(request.source.input +
                        ": --follow follows a folder of images named by their nanosecond "
-                       "timestamps (not a video or a EuRoC layout)");
+                       "timestamps (not a video, a EuRoC or a DSO layout)");
     if (!request.source.frame_times.empty())
       throw InputError("--frame-times does not go with --follow");
   }
