@@ -1,7 +1,7 @@
 // fsp run INPUT --out DIR [--calib FILE] [--imu FILE] [--config FILE]
 //         [--frontend rect|apriltag|gt-corners|corners] [--corners FILE] [--objects FILE]
 //         [--landmarks fsp|fhp] [--mode window|batch] [--realtime] [--follow [--idle-s S]]
-//         [--video FILE] [--show] [--seed N] [--sync]
+//         [--until-s S] [--video FILE] [--show] [--seed N] [--sync]
 // Runs the pipeline on a recording and writes trajectory.tum, map.json, observations.csv and
 // run.json.
 #include <atomic>
@@ -218,6 +218,9 @@ void AddRunCommand(CLI::App& root) {
   sub->add_option("--idle-s", args->request.idle_s,
                   "--follow: stop when no new image arrived for this long [s]")
       ->default_str("5");
+  sub->add_option("--until-s", args->request.until_s,
+                  "only the first S seconds of the recording: frames and IMU samples up to the "
+                  "first frame's time + S (not with --follow)");
   sub->add_flag("--show", args->request.show,
                 "show the annotated frame (as --video draws it) in a window while running, where "
                 "a display exists (otherwise a warning and no window)");
