@@ -141,13 +141,15 @@ void AddInfoCommand(CLI::App& root) {
   auto* sub = root.add_subcommand(
       "info", "Describe a recording: frames, IMU samples, time span, calibration");
   sub->footer(
-      "INPUT is a EuRoC folder (DIR/mav0 or mav0 itself), a video file (with --imu and --calib), "
-      "or a folder\n"
-      "of images named <t_ns>.png or listed in a data.csv (with --imu and --calib). Every image is "
-      "decoded\n"
-      "to verify it unless --quick. Bad input: one line 'fsp: error: FILE:LINE: what' and exit "
+      "INPUT is a EuRoC folder (DIR/mav0 or mav0 itself), a DSO / TUM-VI / DM-VIO folder\n"
+      "(cam0/{times.txt,camera.txt,images/}, imu.txt, camchain.yaml), a video file (with --imu "
+      "and\n"
+      "--calib), or a folder of images named <t_ns>.png or listed in a data.csv (with --imu and\n"
+      "--calib). Every image is decoded to verify it unless --quick. Bad input: one line 'fsp: "
+      "error: FILE:LINE: what' and exit "
       "code 2.");
-  sub->add_option("INPUT", args->source.input, "EuRoC dataset folder, video file or image folder")
+  sub->add_option("INPUT", args->source.input,
+                  "EuRoC or DSO dataset folder, video file or image folder")
       ->required();
   sub->add_option(
       "--calib", args->source.calib,

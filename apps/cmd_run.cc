@@ -1,7 +1,7 @@
 // fsp run INPUT --out DIR [--calib FILE] [--imu FILE] [--config FILE]
 //         [--frontend rect|apriltag|gt-corners|corners] [--corners FILE] [--objects FILE]
 //         [--landmarks fsp|fhp] [--mode window|batch] [--realtime] [--follow [--idle-s S]]
-//         [--video FILE] [--show] [--seed N] [--sync]
+//         [--until-s S] [--video FILE] [--show] [--seed N] [--sync]
 // Runs the pipeline on a recording and writes trajectory.tum, map.json, observations.csv and
 // run.json.
 #include <atomic>
@@ -154,7 +154,10 @@ void AddRunCommand(CLI::App& root) {
       "run",
       "Run FSP-SLAM on a recording: INPUT is a EuRoC-layout folder (a rendered sequence is one), "
       "a\n"
-      "video or a folder of images named by nanosecond timestamps (both with --imu and --calib).\n"
+      "DSO / TUM-VI / DM-VIO folder (cam0/{times.txt,camera.txt,images/}, imu.txt, "
+      "camchain.yaml),\n"
+      "a video or a folder of images named by nanosecond timestamps (both with --imu and "
+      "--calib).\n"
       "Writes trajectory.tum, trajectory_online.tum, map.json, observations.csv and run.json to\n"
       "--out DIR (each file written under a temporary name and renamed: never seen half-written).\n"
       "The front end gt-corners reads a rendered sequence's ground-truth corners\n"
@@ -174,7 +177,8 @@ void AddRunCommand(CLI::App& root) {
       "frames\n"
       "processed).");
   sub->add_option("INPUT", args->request.source.input,
-                  "EuRoC-layout folder (DIR/mav0 or mav0 itself), video, or image folder");
+                  "EuRoC-layout folder (DIR/mav0 or mav0 itself), DSO-layout folder, video, or "
+                  "image folder");
   sub->add_option("--out", args->request.out_dir, "output folder (created)");
   sub->add_option("--calib", args->request.source.calib,
                   "calibration: EuRoC cam0/sensor.yaml, Kalibr camchain or fsp calib.yaml "
@@ -215,6 +219,9 @@ void AddRunCommand(CLI::App& root) {
   sub->add_option("--idle-s", args->request.idle_s,
                   "--follow: stop when no new image arrived for this long [s]")
       ->default_str("5");
+  sub->add_option("--until-s", args->request.until_s,
+                  "only the first S seconds of the recording: frames and IMU samples up to the "
+                  "first frame's time + S (not with --follow)");
   sub->add_flag("--show", args->request.show,
                 "show the annotated frame (as --video draws it) in a window while running, where "
                 "a display exists (otherwise a warning and no window)");

@@ -7,9 +7,11 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <optional>
 #include <thread>
+#include <variant>
 
 #include <opencv2/core.hpp>
 
@@ -94,6 +96,10 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
     throw InputError(request.source.input + ": INPUT not found");
   if (request.synchronous && (request.follow || request.realtime))
     throw InputError("--sync does not go with --follow or --realtime (live runs use two threads)");
+  if (request.until_s < 0.0 || !std::isfinite(request.until_s))
+    throw InputError("--until-s must be > 0");
+  if (request.follow && request.until_s > 0.0)
+    throw InputError("--until-s does not go with --follow");
   if (request.follow) {
     if (!from_images)
       throw InputError("--follow reads images: use --frontend rect or apriltag (not " +
@@ -103,7 +109,7 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
         fs::is_directory(fs::path(request.source.input) / "mav0"))
       throw InputError(request.source.input +
                        ": --follow follows a folder of images named by their nanosecond "
-                       "timestamps (not a video or a EuRoC layout)");
+                       "timestamps (not a video, a EuRoC or a DSO layout)");
     if (!request.source.frame_times.empty())
       throw InputError("--frame-times does not go with --follow");
   }
@@ -164,8 +170,15 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   report.seed = gt ? config.gt_corners.seed : 0;
   report.pixel_sigma = gt ? config.gt_corners.pixel_sigma : 0.0;
   int64_t frame_period_ns = 0;
+  // --until-s: measurements after this time are not read.
+  int64_t until_ns = std::numeric_limits<int64_t>::max();
   if (source) {
-    const std::vector<int64_t>& frame_times = source->frame_times();
+    std::vector<int64_t> frame_times = source->frame_times();
+    if (request.until_s > 0.0) {
+      until_ns = frame_times.front() + std::llround(request.until_s * 1e9);
+      frame_times.erase(std::upper_bound(frame_times.begin(), frame_times.end(), until_ns),
+                        frame_times.end());
+    }
     report.frames = static_cast<int>(frame_times.size());
     if (frame_times.size() >= 2) {
       report.duration_s = NsToSeconds(frame_times.back() - frame_times.front());
@@ -256,7 +269,9 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   const auto next = [&]() -> std::optional<Measurement> {
     if (follower) return follower->Next();
     if (request.stop && request.stop->load()) return std::nullopt;
-    return source->Next();
+    std::optional<Measurement> m = source->Next();
+    if (m && std::visit([](const auto& x) { return x.t_ns; }, *m) > until_ns) return std::nullopt;
+    return m;
   };
 
   while (std::optional<Measurement> m = next()) {

@@ -26,6 +26,9 @@ struct RunRequest {
   // buffer) unless `realtime` also asks to drop what the pipeline cannot keep up with.
   bool follow = false;
   double idle_s = 5.0;
+  // > 0: only the measurements within this many seconds of the first frame (frames and IMU samples
+  // up to the first frame's time + until_s); not with `follow`.
+  double until_s = 0.0;
   double poll_s = 0.02;
   // The front end and the back end run on their own threads (pipeline::ThreadedSystem) unless
   // `synchronous` asks for one thread (the live modes always use threads). Both schedules give the

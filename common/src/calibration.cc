@@ -94,29 +94,45 @@ void ParseEuroc(const YamlFile& f, bool check_model, Calibration* c) {
   if (root["rate_hz"]) c->camera_rate_hz = f.Double(root["rate_hz"], "rate_hz");
 }
 
+// cam0's T_B_C from T_imu_cam, or T_cam_imu inverted.
+Rigid3 ParseKalibrTBC(const YamlFile& f, const YAML::Node& cam) {
+  if (cam["T_imu_cam"]) return f.Transform(cam["T_imu_cam"], "T_imu_cam");  // camera -> IMU already
+  if (cam["T_cam_imu"])
+    return f.Transform(cam["T_cam_imu"], "T_cam_imu").Inverse();  // T_C_B -> T_B_C
+  f.Fail(cam, "cam0 has neither T_imu_cam nor T_cam_imu");
+}
+
+// timeshift_cam_imu, and the IMU noise where a camchain may hold it: an imu0 block (Kalibr's
+// imu-cam chain), or the four density keys inside cam0 or at the top (DM-VIO's camchains).
+void ParseKalibrTimeshiftAndNoise(const YamlFile& f, const YAML::Node& cam, Calibration* c) {
+  if (cam["timeshift_cam_imu"]) {
+    c->time_offset_ns = std::llround(f.Double(cam["timeshift_cam_imu"], "timeshift_cam_imu") * 1e9);
+  }
+  const YAML::Node& root = f.root();
+  YAML::Node noise;
+  if (root["imu0"])
+    noise = root["imu0"];
+  else if (cam["gyroscope_noise_density"])
+    noise = cam;
+  else if (root["gyroscope_noise_density"])
+    noise = root;
+  if (noise.IsDefined() && !noise.IsNull()) {
+    c->imu = ParseImuNoise(f, noise);
+    c->imu_source = f.path();
+  }
+}
+
 // Kalibr camchain: cam0 {T_imu_cam | T_cam_imu, camera_model, intrinsics, distortion_model,
-// distortion_coeffs, resolution, timeshift_cam_imu}.
+// distortion_coeffs, resolution, timeshift_cam_imu}, IMU noise as ParseKalibrTimeshiftAndNoise.
 void ParseKalibr(const YamlFile& f, bool check_model, Calibration* c) {
   const YAML::Node cam = f.Require(f.root(), "cam0");
   if (!cam.IsMap()) f.Fail(cam, "'cam0' is not a map");
-  if (cam["T_imu_cam"]) {
-    c->T_B_C = f.Transform(cam["T_imu_cam"], "T_imu_cam");  // camera -> IMU already
-  } else if (cam["T_cam_imu"]) {
-    c->T_B_C = f.Transform(cam["T_cam_imu"], "T_cam_imu").Inverse();  // T_C_B -> T_B_C
-  } else {
-    f.Fail(cam, "cam0 has neither T_imu_cam nor T_cam_imu");
-  }
+  c->T_B_C = ParseKalibrTBC(f, cam);
   if (!check_model) return;
   CheckCameraModel(f, cam, "camera_model", "distortion_model");
   ParseIntrinsics(f, cam, &c->camera);
   ParseDistortion(f, cam["distortion_coeffs"], "distortion_coeffs", &c->camera);
-  if (cam["timeshift_cam_imu"]) {
-    c->time_offset_ns = std::llround(f.Double(cam["timeshift_cam_imu"], "timeshift_cam_imu") * 1e9);
-  }
-  if (f.root()["imu0"]) {
-    c->imu = ParseImuNoise(f, f.root()["imu0"]);
-    c->imu_source = f.path();
-  }
+  ParseKalibrTimeshiftAndNoise(f, cam, c);
 }
 
 // FSP's calib.yaml (format in calibration.h).
@@ -211,6 +227,17 @@ Calibration ReadCalibration(const std::string& path) {
 
 Rigid3 ReadCameraExtrinsics(const std::string& path) {
   return Parse(path, false).T_B_C;
+}
+
+Calibration ReadKalibrCameraImu(const std::string& path) {
+  const YamlFile f(path, "camera-IMU calibration (camchain)");
+  const YAML::Node cam = f.Require(f.root(), "cam0");
+  if (!cam.IsMap()) f.Fail(cam, "'cam0' is not a map");
+  Calibration c;
+  c.source = path;
+  c.T_B_C = ParseKalibrTBC(f, cam);
+  ParseKalibrTimeshiftAndNoise(f, cam, &c);
+  return c;
 }
 
 ImuNoise ReadImuNoise(const std::string& path) {

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "dataset_internal.h"
 #include "fsp/common/error.h"
@@ -135,6 +137,90 @@ std::unique_ptr<Source> OpenEuroc(const fs::path& mav0, const SourceOptions& opt
   return Finish(InputKind::kEuroc, std::move(calib), std::move(frames), imu_path, options);
 }
 
+// A DSO / TUM-VI / DM-VIO layout: DIR/cam0 holds times.txt, camera.txt or images/ (and not
+// EuRoC's data.csv).
+bool IsDsoLayout(const fs::path& dir) {
+  const fs::path cam0 = dir / "cam0";
+  return !IsFile(cam0 / "data.csv") &&
+         (IsFile(cam0 / "times.txt") || IsFile(cam0 / "camera.txt") || IsDir(cam0 / "images"));
+}
+
+// The IMU noise of a DSO layout whose camchain has none: the first YAML file beside it (by name)
+// that mentions a noise density, such as DM-VIO's settings file (d435.yaml, ...).
+void ReadImuNoiseBeside(const fs::path& dir, const fs::path& camchain, Calibration* calib) {
+  std::vector<fs::path> yamls;
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    const std::string ext = e.path().extension().string();
+    if ((ext == ".yaml" || ext == ".yml") && e.path() != camchain && IsFile(e.path()))
+      yamls.push_back(e.path());
+  }
+  std::sort(yamls.begin(), yamls.end());
+  for (const fs::path& p : yamls) {
+    std::ifstream in(p);
+    std::ostringstream text;
+    text << in.rdbuf();
+    if (text.str().find("noise_density") == std::string::npos) continue;
+    calib->imu = ReadImuNoise(p.string());
+    calib->imu_source = p.string();
+    return;
+  }
+}
+
+std::unique_ptr<Source> OpenDso(const fs::path& dir, const SourceOptions& options) {
+  const fs::path cam0 = dir / "cam0";
+  const fs::path times = cam0 / "times.txt";
+  const fs::path camera_txt = cam0 / "camera.txt";
+  const fs::path camchain = dir / "camchain.yaml";
+  if (!IsFile(times)) {
+    throw InputError(times.string(), 0,
+                     "DSO frame list not found (rows 'id t_s [exposure_ms]'; images in " +
+                         (cam0 / "images").string() + ")");
+  }
+  internal::FrameList frames =
+      internal::ListImagesFromDsoTimes(times.string(), (cam0 / "images").string());
+  Calibration calib;
+  if (!options.calib.empty()) {
+    calib = ReadCalibration(options.calib);
+    if (calib.imu_source.empty() && IsFile(camchain)) {
+      const Calibration chain = ReadKalibrCameraImu(camchain.string());
+      calib.imu = chain.imu;
+      calib.imu_source = chain.imu_source;
+    }
+  } else {
+    // Intrinsics from camera.txt (the file beside the images, the one DSO and DM-VIO read them
+    // from); T_B_C, time shift and IMU noise from the camchain, whose intrinsics are not read.
+    if (!IsFile(camera_txt))
+      throw InputError(camera_txt.string(), 0,
+                       "camera calibration not found (or pass --calib FILE)");
+    if (!IsFile(camchain)) {
+      throw InputError(camchain.string(), 0,
+                       "camera-IMU calibration not found (Kalibr camchain with cam0: T_cam_imu; or "
+                       "pass --calib FILE)");
+    }
+    calib = ReadKalibrCameraImu(camchain.string());
+    calib.camera = ReadDsoCamera(camera_txt.string());
+    calib.source = camera_txt.string() + ", " + camchain.string();
+    if (frames.t_ns.size() >= 2) {
+      std::vector<int64_t> dt;
+      for (size_t i = 1; i < frames.t_ns.size(); ++i)
+        dt.push_back(frames.t_ns[i] - frames.t_ns[i - 1]);
+      std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
+      calib.camera_rate_hz = 1e9 / static_cast<double>(dt[dt.size() / 2]);
+    }
+    std::string why;
+    if (!calib.Check(&why)) throw InputError(calib.source, 0, why);
+  }
+  if (calib.imu_source.empty()) ReadImuNoiseBeside(dir, camchain, &calib);
+  const fs::path imu_txt = dir / "imu.txt";
+  if (options.imu.empty() && !IsFile(imu_txt)) {
+    throw InputError(imu_txt.string(), 0,
+                     "IMU samples not found (rows 't_ns wx wy wz ax ay az'; or pass --imu FILE)");
+  }
+  const std::string imu_path = !options.imu.empty() ? options.imu : imu_txt.string();
+  return Finish(InputKind::kDso, std::move(calib), std::move(frames), imu_path, options);
+}
+
 void RequireCalibAndImu(const SourceOptions& options, const char* what) {
   if (options.calib.empty() || options.imu.empty()) {
     throw InputError(options.input, 0, std::string(what) + " needs --calib FILE and --imu FILE");
@@ -179,6 +265,8 @@ const char* ToString(InputKind kind) {
       return "video";
     case InputKind::kImageFolder:
       return "image-folder";
+    case InputKind::kDso:
+      return "dso";
   }
   return "?";
 }
@@ -201,6 +289,7 @@ std::unique_ptr<Source> OpenSource(const SourceOptions& options) {
   if (!fs::exists(input, ec)) throw InputError(options.input, 0, "input not found");
   if (IsDir(input)) {
     if (IsDir(input / "mav0" / "cam0")) return OpenEuroc(input / "mav0", options);
+    if (IsDsoLayout(input)) return OpenDso(input, options);
     if (IsDir(input / "cam0")) return OpenEuroc(input, options);
     return OpenImageFolder(input, options);
   }

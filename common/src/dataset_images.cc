@@ -1,7 +1,9 @@
-// Frames stored as image files: listed in a data.csv, or named by their timestamps.
+// Frames stored as image files: listed in a data.csv or a DSO times.txt, or named by their
+// timestamps.
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -36,6 +38,27 @@ std::string Lower(std::string s) {
 bool IsImageExtension(const std::string& ext) {
   static const std::set<std::string> kExt = {".png", ".jpg", ".jpeg", ".pgm", ".bmp"};
   return kExt.count(Lower(ext)) > 0;
+}
+
+// T_S (decimal seconds, "1650458716.848713") in nanoseconds, exactly (rounded beyond 9 decimals);
+// false unless it is plain digits with at most one '.' and fits.
+bool DecimalSecondsToNs(const std::string& t_s, int64_t* t_ns) {
+  const size_t dot = t_s.find('.');
+  const std::string whole = t_s.substr(0, dot);
+  const std::string frac = dot == std::string::npos ? std::string() : t_s.substr(dot + 1);
+  const auto digits = [](const std::string& s) {
+    return std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
+  };
+  if ((whole.empty() && frac.empty()) || !digits(whole) || !digits(frac) || whole.size() > 10)
+    return false;
+  const int64_t seconds = whole.empty() ? 0 : std::stoll(whole);
+  if (seconds > 9'000'000'000LL) return false;  // beyond int64 nanoseconds (year 2255)
+  int64_t ns = seconds * 1'000'000'000LL;
+  int64_t scale = 100'000'000;
+  for (size_t i = 0; i < frac.size() && i < 9; ++i, scale /= 10) ns += (frac[i] - '0') * scale;
+  if (frac.size() > 9 && frac[9] >= '5') ++ns;
+  *t_ns = ns;
+  return true;
 }
 
 }  // namespace
@@ -101,6 +124,54 @@ FrameList ListImagesFromCsv(const std::string& csv_path, const std::string& imag
   }
   if (list.t_ns.empty())
     throw InputError(csv_path, 0, "no frames listed (expected rows t_ns,filename)");
+  list.decoder = std::make_unique<ImageFileDecoder>(std::move(paths));
+  return list;
+}
+
+FrameList ListImagesFromDsoTimes(const std::string& times_path, const std::string& image_dir) {
+  TableReader reader(times_path, "DSO times.txt");
+  FrameList list;
+  std::vector<std::string> paths;
+  std::vector<std::string> f;
+  int prev_line = 0;
+  while (reader.NextRow(&f)) {
+    reader.ExpectColumns(f, 2, 3);
+    const std::string& id = f[0];
+    int64_t t = 0;
+    if (!DecimalSecondsToNs(f[1], &t)) {
+      const double s = reader.Double(f, 1, "t_s");
+      if (!(s >= 0.0 && s < 9.2e9)) reader.Fail("column 2 (t_s) is not a time in seconds: " + f[1]);
+      t = std::llround(s * 1e9);
+    }
+    if (f.size() == 3) reader.Double(f, 2, "exposure_ms");
+    // An id that is the same time in nanoseconds is exact where t_s was rounded.
+    if (id.size() >= 10 && id.size() <= 19 &&
+        std::all_of(id.begin(), id.end(), [](unsigned char c) { return std::isdigit(c); })) {
+      errno = 0;
+      const long long id_ns = std::strtoll(id.c_str(), nullptr, 10);
+      if (errno != ERANGE && std::llabs(id_ns - t) <= 1'000'000) t = id_ns;
+    }
+    if (!list.t_ns.empty()) CheckIncreasing(reader, t, list.t_ns.back(), prev_line);
+    prev_line = reader.line();
+    std::string path;
+    for (const char* ext : {".png", ".jpg", ".jpeg", ".pgm", ".bmp"}) {
+      const fs::path candidate = fs::path(image_dir) / (id + ext);
+      std::error_code ec;
+      if (fs::is_regular_file(candidate, ec)) {
+        path = candidate.string();
+        break;
+      }
+    }
+    if (path.empty()) {
+      reader.Fail("no image '" + id + ".png' or '" + id + ".jpg' (or .jpeg/.pgm/.bmp) in " +
+                  image_dir);
+    }
+    list.t_ns.push_back(t);
+    paths.push_back(path);
+  }
+  if (list.t_ns.empty()) {
+    throw InputError(times_path, 0, "no frames listed (expected rows 'id t_s [exposure_ms]')");
+  }
   list.decoder = std::make_unique<ImageFileDecoder>(std::move(paths));
   return list;
 }

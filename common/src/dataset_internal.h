@@ -34,6 +34,13 @@ struct FrameList {
 FrameList ListImagesFromCsv(const std::string& csv_path, const std::string& image_dir);
 // Frames of a folder whose image files are named <t_ns>.<png|jpg|jpeg|pgm|bmp>.
 FrameList ListImagesByName(const std::string& folder);
+// Frames listed in a DSO / TUM-VI / DM-VIO times.txt: rows "id t_s [exposure_ms]" (whitespace
+// separated), the image IMAGE_DIR/<id>.<png|jpg|jpeg|pgm|bmp>. The time is t_s read exactly to the
+// nanosecond, or the id itself when it is a nanosecond timestamp within 1 ms of t_s (DM-VIO and
+// TUM-VI name images by their nanosecond time and print t_s rounded to the microsecond). The
+// exposure, when present, must be a number and is not used. Every image must exist; times must
+// strictly increase.
+FrameList ListImagesFromDsoTimes(const std::string& times_path, const std::string& image_dir);
 // Frames of a video: times from its clock, or from FRAME_TIMES when not empty (count must match).
 FrameList ScanVideo(const std::string& video, const std::string& frame_times);
 

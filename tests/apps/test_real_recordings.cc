@@ -1,6 +1,8 @@
 // `fsp run` on real recordings (skipped without the shared test data): EuRoC V1_01's still start
-// from pixels, with the CLI's defaults.
+// from pixels, with the CLI's defaults; what `fsp info` reads of the DM-VIO room walk (its first 60
+// s only; skipped without the recording).
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -9,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "fsp/common/dataset.h"
 #include "fsp/common/trajectory_io.h"
 #include "test_util.h"
 
@@ -71,6 +74,87 @@ TEST(RealRecordings, EurocStandingStillStaysWithinTwoCentimetres) {
   nlohmann::json strict_map;
   std::ifstream(dir / "strict" / "map.json") >> strict_map;
   EXPECT_EQ(strict_map["objects"].size(), 0u);
+}
+
+// The DM-VIO room walk (a handheld RealSense recording in the DSO layout; fetched, never copied
+// here: see the shared data's README): $FSP_DMVIO_WALK, else /work/scratch/dmvio when it exists.
+std::string DmvioWalkDir() {
+  if (const char* env = std::getenv("FSP_DMVIO_WALK"); env && *env) return env;
+  return fs::exists("/work/scratch/dmvio") ? "/work/scratch/dmvio" : "";
+}
+
+#define FSP_REQUIRE_DMVIO_WALK(var)                                                             \
+  const std::string var = DmvioWalkDir();                                                       \
+  if (var.empty() || !fs::exists(fs::path(var) / "cam0" / "times.txt"))                         \
+  GTEST_SKIP() << "DM-VIO room walk not found: fetch github:Zoltan3057/DM-VIO-dataset (commit " \
+                  "7f0fcff) into a scratch folder and set FSP_DMVIO_WALK to it"
+
+// Only the first 60 s may be used for tests and tuning: frames before 1650458776.85 s.
+constexpr int64_t kWalkFirst60sEndNs = 1'650'458'776'850'000'000LL;
+
+// The facts `fsp info` reports, on the walk's first 60 s: 1059 frames over 59.94 s (15-30 Hz,
+// median 60 ms), 1280x720 grey JPEGs, K and T_B_C as in camera.txt and camchain.yaml, IMU at
+// ~200 Hz (plus a sample interpolated at every frame time for DM-VIO).
+TEST(RealRecordings, DmvioWalkFirst60sAsFspInfoSeesIt) {
+  FSP_REQUIRE_DMVIO_WALK(dir);
+  SourceOptions opts;
+  opts.input = dir;
+  opts.decode_images = false;
+  const std::unique_ptr<Source> src = OpenSource(opts);
+  EXPECT_EQ(src->kind(), InputKind::kDso);
+  const std::vector<int64_t>& ft = src->frame_times();
+  const auto end60 = std::lower_bound(ft.begin(), ft.end(), kWalkFirst60sEndNs);
+  const int n = static_cast<int>(end60 - ft.begin());
+  ASSERT_EQ(n, 1059);
+  EXPECT_EQ(ft.front(), 1650458716848712921LL);  // the ids: nanoseconds, exact
+  EXPECT_EQ(ft[static_cast<size_t>(n - 1)], 1650458776792455912LL);
+  EXPECT_NEAR(1e-9 * static_cast<double>(ft[static_cast<size_t>(n - 1)] - ft.front()), 59.944,
+              1e-3);
+  for (const int i : {0, n / 2, n - 1}) {
+    const Frame f = src->ReadFrame(i);
+    EXPECT_EQ(f.image.type(), CV_8UC1) << i;
+    EXPECT_EQ(f.image.cols, 1280) << i;
+    EXPECT_EQ(f.image.rows, 720) << i;
+  }
+
+  const Calibration& c = src->calibration();
+  EXPECT_EQ(c.camera.width, 1280);
+  EXPECT_EQ(c.camera.height, 720);
+  EXPECT_DOUBLE_EQ(c.camera.fx, 906.259765625);  // camera.txt, absolute pixels
+  EXPECT_DOUBLE_EQ(c.camera.fy, 906.550964355469);
+  EXPECT_DOUBLE_EQ(c.camera.cx, 642.896362304688);
+  EXPECT_DOUBLE_EQ(c.camera.cy, 353.142242431641);
+  EXPECT_FALSE(c.camera.HasDistortion());
+  Mat4 T_C_B;                                               // camchain.yaml's T_cam_imu
+  T_C_B << 0.99994214, 0.00945273, -0.0050503, 0.01205559,  //
+      -0.00932683, 0.99965867, 0.02439719, -0.00234671,     //
+      0.00527919, -0.02434868, 0.99968917, -0.00226012,     //
+      0.0, 0.0, 0.0, 1.0;
+  EXPECT_LT((c.T_B_C.Matrix() * T_C_B - Mat4::Identity()).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_EQ(c.time_offset_ns, 0);
+  EXPECT_EQ(c.imu_source, dir + "/camchain.yaml");
+
+  // IMU over the first 60 s: median interval ~5 ms (200 Hz), starting before the first frame.
+  std::vector<int64_t> dt;
+  const std::vector<ImuSample>& imu = src->imu();
+  for (size_t i = 1; i < imu.size() && imu[i].t_ns < kWalkFirst60sEndNs; ++i)
+    dt.push_back(imu[i].t_ns - imu[i - 1].t_ns);
+  ASSERT_GT(dt.size(), 12000u);
+  std::nth_element(dt.begin(), dt.begin() + static_cast<long>(dt.size() / 2), dt.end());
+  EXPECT_NEAR(1e9 / static_cast<double>(dt[dt.size() / 2]), 200.0, 2.0);
+  EXPECT_LT(imu.front().t_ns, ft.front());
+  // Gravity on the accelerometer [m/s^2] while held before the walk.
+  EXPECT_NEAR(imu.front().acc.norm(), 9.8, 0.3);
+
+  // fsp info itself, with no --calib and no --imu.
+  const test::CommandResult r = test::RunFsp("info " + dir + " --json --quick");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["kind"].get<std::string>(), "dso");
+  EXPECT_EQ(j["t_first_ns"].get<int64_t>(), 1650458716848712921LL);
+  EXPECT_EQ(j["camera"]["width"].get<int>(), 1280);
+  EXPECT_DOUBLE_EQ(j["camera"]["fx"].get<double>(), 906.259765625);
+  EXPECT_NEAR(j["imu"]["rate_hz"].get<double>(), 200.0, 2.0);
 }
 
 }  // namespace

@@ -60,6 +60,23 @@ TEST(RunCli, CornersFrontEndErrors) {
       "c.csv:1: column 7 (u3) is not finite");
 }
 
+// --until-s: the frames up to the first one's time + S, and their IMU; refused when negative or
+// with --follow.
+TEST(RunCli, UntilSeconds) {
+  const fs::path dir = test::ScratchDir();
+  test::MakeEuroc(dir / "seq", 6);  // frames 50 ms apart
+  const std::string run = "run " + (dir / "seq").string() + " --out " + (dir / "out").string();
+  // 0.12 s of this still fixture cannot initialise (1 s of IMU needed): exit 2, outputs written.
+  const test::CommandResult r = test::RunFsp(run + " --until-s 0.12");
+  ASSERT_TRUE(fs::exists(dir / "out" / "run.json")) << r.err;
+  const std::string json = test::Slurp(dir / "out" / "run.json");
+  EXPECT_NE(json.find("\"frames\": 3,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"frames_processed\": 3,"), std::string::npos) << json;
+  ExpectOneLineError(test::RunFsp(run + " --until-s -1"), "--until-s must be > 0");
+  ExpectOneLineError(test::RunFsp(run + " --until-s 1 --follow"),
+                     "--until-s does not go with --follow");
+}
+
 TEST(RunCli, BadConfig) {
   const fs::path dir = test::ScratchDir();
   test::MakeEuroc(dir / "seq", 3);

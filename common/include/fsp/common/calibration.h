@@ -77,6 +77,26 @@ ImuNoise ReadImuNoise(const std::string& path);
 // T_B_C (camera -> body) from any file ReadCalibration understands, without checking the camera
 // model (so a TUM-VI equidistant camchain gives its extrinsics).
 Rigid3 ReadCameraExtrinsics(const std::string& path);
+// The camera-IMU part of a Kalibr camchain whose intrinsics live elsewhere (a DSO layout's
+// camera.txt): cam0's T_imu_cam, or T_cam_imu inverted (T_C_B -> T_B_C); timeshift_cam_imu; the IMU
+// noise when the file holds it (an imu0 block, or the four density keys inside cam0 or at the top
+// level, as DM-VIO's camchains have them; imu_source is then PATH). A camera model, intrinsics or
+// resolution in it are not read (DM-VIO reads only T_cam_imu there either); the returned camera is
+// empty. Throws InputError "FILE:LINE: what".
+Calibration ReadKalibrCameraImu(const std::string& path);
+// A DSO / TUM-VI / DM-VIO cam0/camera.txt (DSO's Undistort format). Line 1, the camera:
+//   "Pinhole fx fy cx cy 0"                or bare "fx fy cx cy 0" (a non-zero fifth number is
+//                                          DSO's FOV/ATAN model: rejected; a named Pinhole
+//                                          ignores it, as DSO does);
+//   "RadTan fx fy cx cy k1 k2 p1 p2"       or bare eight numbers (OpenCV order);
+//   "FOV ...", "EquiDistant ...", "KannalaBrandt ..."   rejected (ATAN, fisheye).
+// Line 2: the image size "width height". When cx < 1 and cy < 1 the numbers are relative (DSO's
+// rule): fx * w, fy * h, cx * w - 0.5, cy * h - 0.5 (DSO's relative form counts from the top-left
+// pixel's outer corner; -0.5 moves the origin to that pixel's centre, the convention used here);
+// otherwise they are pixels with the OpenCV convention. Lines 3-4 (DSO's rectified output: crop,
+// full, none or a K, and its size) are not read: fsp works on the original images. Throws
+// InputError "FILE:LINE: what".
+PinholeRadtan ReadDsoCamera(const std::string& path);
 // Writes FSP's calib.yaml (readable by ReadCalibration). Throws InputError when PATH cannot be
 // written.
 void WriteCalibration(const Calibration& calib, const std::string& path);

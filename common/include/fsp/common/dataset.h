@@ -6,6 +6,21 @@
 //    ("#timestamp [ns],filename") + cam0/data/*, imu0/data.csv, cam0/sensor.yaml (+
 //    imu0/sensor.yaml for the IMU noise). --calib and --imu override the files of the folder when
 //    given.
+//  - DSO / TUM-VI / DM-VIO layout: DIR/cam0/{times.txt, camera.txt, images/}, DIR/imu.txt,
+//    DIR/camchain.yaml (recognised by cam0/times.txt, cam0/camera.txt or cam0/images/ without
+//    EuRoC's cam0/data.csv). times.txt: rows "id t_s [exposure_ms]", the image
+//    cam0/images/<id>.png|jpg; the time is the id when it is the same time in nanoseconds (DM-VIO,
+//    TUM-VI: exact where t_s is rounded), else t_s; the exposure is not used. camera.txt: DSO's
+//    camera file (ReadDsoCamera: pinhole or radtan, absolute or relative; fisheye rejected).
+//    imu.txt: "t_ns wx wy wz ax ay az" [ns, rad/s, m/s^2], whitespace separated, '#' comments
+//    (read by ReadImuCsv). camchain.yaml: Kalibr's cam0 T_cam_imu (= T_C_B, inverted) or
+//    T_imu_cam, timeshift_cam_imu, and the IMU noise when it holds it (ReadKalibrCameraImu);
+//    otherwise the first other YAML file in DIR mentioning a noise density (DM-VIO's settings
+//    file, e.g. d435.yaml), else the defaults. camera.txt wins for the intrinsics and image size:
+//    it is the file beside the images that DSO and DM-VIO read them from; a camchain's own
+//    intrinsics (if any) are not read, as DM-VIO reads only T_cam_imu there. The camera rate is
+//    the median frame interval. --calib replaces camera.txt and the camchain's transform (the
+//    camchain's IMU noise still applies when --calib has none); --imu replaces imu.txt.
 //  - a video file + --imu CSV + --calib FILE. Frame k's time is the video clock (CAP_PROP_POS_MSEC,
 //    rounded to 1 us); when that clock agrees with k / fps to 2 us (a constant-rate video) or is
 //    unusable, round(k * 1e9 / fps) exactly, which is the renderer's own frame time at any rate.
@@ -30,12 +45,13 @@
 
 namespace fsp {
 
-enum class InputKind { kEuroc, kVideo, kImageFolder };
-const char* ToString(InputKind kind);  // "euroc", "video", "image-folder"
+enum class InputKind { kEuroc, kVideo, kImageFolder, kDso };
+const char* ToString(InputKind kind);  // "euroc", "video", "image-folder", "dso"
 
 struct SourceOptions {
   std::string input;  // dataset folder, video file or image folder
   std::string calib;  // calibration file; required for video and image folders, overrides EuRoC's
+                      // and the DSO layout's
   std::string imu;    // IMU csv (t_ns,wx,wy,wz,ax,ay,az); required for video and image folders
   std::string
       frame_times;  // optional: one t_ns per video frame (csv or plain), overrides the video clock
