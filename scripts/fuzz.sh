@@ -115,11 +115,12 @@ run_target() {
   local dirs=("$corpus")
   [ -d "fuzz/corpus/$t" ] && dirs+=("fuzz/corpus/$t")
   dirs+=("$BUILD/seeds/$t")
-  local rc=0
+  local rc=0 start=$SECONDS
   TMPDIR=$ROOT/$tmp "$BUILD/fuzz/$t" -max_total_time="$SECS" -timeout="$TIMEOUT" \
     -rss_limit_mb="$RSS_MB" -max_len=16384 -print_final_stats=1 \
     -artifact_prefix="$findings/" "${dirs[@]}" >"$BUILD/logs/$t.log" 2>&1 || rc=$?
   echo "$rc" >"$BUILD/logs/$t.rc"
+  echo $((SECONDS - start)) >"$BUILD/logs/$t.secs"
   rm -rf "$tmp"
 }
 
@@ -144,10 +145,11 @@ total=0
 printf '%-20s %8s %12s %10s %8s  %s\n' target seconds executions exec/s findings artifacts
 for t in "${TARGETS[@]}"; do
   log=$BUILD/logs/$t.log
-  execs=$(grep -o 'stat::number_of_executed_units: [0-9]*' "$log" | awk '{print $2}' | tail -1)
+  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | awk '{print $2}' | tail -1)
   [ -n "$execs" ] || execs=$(grep -o '^#[0-9]*' "$log" | tr -d '#' | tail -1)
   [ -n "$execs" ] || execs=0
-  secs=$(grep -o 'stat::average_exec_per_sec: [0-9]*' "$log" | awk '{print $2}' | tail -1)
+  rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$log" | awk '{print $2}' | tail -1)
+  secs=$(cat "$BUILD/logs/$t.secs")
   artifacts=$(find "$BUILD/findings/$t" -maxdepth 1 -type f \
     \( -name 'crash-*' -o -name 'leak-*' -o -name 'timeout-*' -o -name 'oom-*' \) -printf '%f ')
   n=$(echo "$artifacts" | wc -w)
@@ -158,7 +160,7 @@ for t in "${TARGETS[@]}"; do
     artifacts="exit code $rc, see $log"
   fi
   total=$((total + n))
-  printf '%-20s %8s %12s %10s %8s  %s\n' "$t" "$SECS" "$execs" "${secs:--}" "$n" "$artifacts"
+  printf '%-20s %8s %12s %10s %8s  %s\n' "$t" "$secs" "$execs" "${rate:--}" "$n" "$artifacts"
 done
 if [ "$total" -ne 0 ]; then
   echo "fuzz: $total finding(s); artifacts in $BUILD/findings/, logs in $BUILD/logs/" >&2

@@ -5,6 +5,7 @@
 
 #include "dataset_fixtures.h"
 #include "fsp/common/dataset.h"
+#include "fsp/common/observations_io.h"
 #include "test_util.h"
 
 namespace fsp {
@@ -270,6 +271,31 @@ TEST_F(BadInput, VideoAndFolderInputs) {
 
   // A missing --imu file.
   EXPECT_EQ(open(folder.string(), calib, imu + ".missing"), imu + ".missing: IMU csv not found");
+}
+
+// Findings of the fuzz targets (fuzz/README.md), each with its minimal input, and what reading
+// the readers beside them showed.
+
+// fuzz_corners_csv: a corner of 4e70 px was read, but written back cut to 63 characters (the
+// writer's fixed buffer): the file read back held another number.
+TEST(FuzzFindings, CornerRowsWithHugeCoordinateRoundTrip) {
+  const fs::path dir = test::ScratchDir();
+  test::WriteText(dir / "corners.csv", "0,2,10,4e70,30,20,30,5,10,5\n");
+  const std::vector<CornerRow> rows = ReadCornerRows((dir / "corners.csv").string());
+  ASSERT_EQ(rows.size(), 1u);
+  WriteCornerRows(rows, (dir / "written.csv").string(), true);
+  const std::vector<CornerRow> back = ReadCornerRows((dir / "written.csv").string());
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_EQ(back[0].corners[0].y(), 4e70);
+}
+
+// An object id beyond int was wrapped silently (4294967297 read as 1).
+TEST(FuzzFindings, CornerRowObjectIdOutOfRange) {
+  const fs::path dir = test::ScratchDir();
+  test::WriteText(dir / "corners.csv", "0,1,1,1,2,1,2,2,1,2\n0,4294967297,1,1,2,1,2,2,1,2\n");
+  const std::string what = ErrorOf([&] { ReadCornerRows((dir / "corners.csv").string()); });
+  EXPECT_NE(what.find("corners.csv:2: column 2 (object_id) is out of range"), std::string::npos)
+      << what;
 }
 
 }  // namespace
