@@ -78,12 +78,19 @@ inline const ScratchDir& Scratch() {
   return dir;
 }
 
-inline void WriteFile(const std::filesystem::path& path, std::string_view bytes) {
+// Writes BYTES as PATH (creating its folder); false when that is impossible (a file of the same
+// name as the folder, ...).
+inline bool TryWriteFile(const std::filesystem::path& path, std::string_view bytes) {
   std::error_code ec;
   std::filesystem::create_directories(path.parent_path(), ec);
   std::ofstream out(path, std::ios::binary);
   out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  if (!out) {
+  return static_cast<bool>(out);
+}
+
+// TryWriteFile for the files a target always writes: failing is a broken machine, not a finding.
+inline void WriteFile(const std::filesystem::path& path, std::string_view bytes) {
+  if (!TryWriteFile(path, bytes)) {
     std::fprintf(stderr, "fsp fuzz: cannot write %s\n", path.c_str());
     std::abort();
   }

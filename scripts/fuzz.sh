@@ -105,6 +105,18 @@ seed_assets() {
   return 0
 }
 
+# A dictionary per target: fuzz/numbers.dict plus every YAML key of its seeds ("width:", ...), so
+# that mutations write keys and extreme numbers, not only bytes.
+make_dict() {
+  local t=$1 dict=$BUILD/dicts/$1.dict
+  mkdir -p "$BUILD/dicts"
+  cp fuzz/numbers.dict "$dict"
+  local seeds=("$BUILD/seeds/$t")
+  [ -d "fuzz/corpus/$t" ] && seeds+=("fuzz/corpus/$t")
+  find "${seeds[@]}" -type f -exec grep -ohE '[A-Za-z_][A-Za-z0-9_]*:' {} + 2>/dev/null |
+    sort -u | sed 's/.*/"&"/' >>"$dict" || true
+}
+
 # --- run ------------------------------------------------------------------------------------------
 mkdir -p "$BUILD/findings" "$BUILD/logs" "$BUILD/corpus" "$BUILD/tmp"
 run_target() {
@@ -117,7 +129,7 @@ run_target() {
   dirs+=("$BUILD/seeds/$t")
   local rc=0 start=$SECONDS
   TMPDIR=$ROOT/$tmp "$BUILD/fuzz/$t" -max_total_time="$SECS" -timeout="$TIMEOUT" \
-    -rss_limit_mb="$RSS_MB" -max_len=16384 -print_final_stats=1 \
+    -rss_limit_mb="$RSS_MB" -max_len=16384 -print_final_stats=1 -dict="$BUILD/dicts/$t.dict" \
     -artifact_prefix="$findings/" "${dirs[@]}" >"$BUILD/logs/$t.log" 2>&1 || rc=$?
   echo "$rc" >"$BUILD/logs/$t.rc"
   echo $((SECONDS - start)) >"$BUILD/logs/$t.secs"
@@ -127,6 +139,7 @@ run_target() {
 for t in "${TARGETS[@]}"; do
   seed_shared "$t"
   seed_assets "$t"
+  make_dict "$t"
 done
 echo "fuzzing ${#TARGETS[@]} target(s) for ${SECS} s each, ${PARALLEL} at a time (logs: $BUILD/logs/)"
 running=0

@@ -62,6 +62,9 @@ struct TrajectoryOptions {
   bool Check(std::string* why) const;
 };
 
+// Most knots a pose file may be resampled into (FromPoses): 2.8 hours at the default 0.1 s.
+constexpr int kMaxPoseKnots = 100'000;
+
 // A C3 trajectory (continuous position, velocity, acceleration and jerk, hence continuous angular
 // velocity) through waypoints: one degree-7 Hermite polynomial per segment in (x, y, z, yaw),
 // matching position, velocity, acceleration and jerk at both ends. Waypoint derivatives: velocity
@@ -78,7 +81,7 @@ class Trajectory {
   // waypoints (position and yaw of the body x axis) every pose_knot_s. Roll and pitch are not taken
   // from the file: they follow the flight model. Like any waypoint trajectory it starts and ends at
   // rest (the first and last knot interval ease in and out). Throws InputError as above, or when
-  // the poses span less than two knots.
+  // the poses span less than two knots or more than kMaxPoseKnots (or more than 292 years).
   static Trajectory FromPoses(const std::vector<StampedPose>& poses,
                               const TrajectoryOptions& options = TrajectoryOptions());
 
