@@ -127,6 +127,8 @@ void ParseKalibr(const YamlFile& f, bool check_model, Calibration* c) {
     c->T_B_C = f.Transform(cam["T_imu_cam"], "T_imu_cam");  // camera -> IMU already
   } else if (cam["T_cam_imu"]) {
     c->T_B_C = f.Transform(cam["T_cam_imu"], "T_cam_imu").Inverse();  // T_C_B -> T_B_C
+    if (!c->T_B_C.translation().allFinite())
+      f.Fail(cam["T_cam_imu"], "'T_cam_imu' has a translation too large to invert");
   } else {
     f.Fail(cam, "cam0 has neither T_imu_cam nor T_cam_imu");
   }

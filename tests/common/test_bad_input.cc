@@ -361,5 +361,19 @@ TEST(FuzzFindings, KalibrTimeshiftOutOfRange) {
             std::string::npos);
 }
 
+// Kalibr T_cam_imu with a translation near the largest double: its inverse overflowed to inf and
+// ReadCameraExtrinsics returned it.
+TEST(FuzzFindings, KalibrExtrinsicsTooLargeToInvert) {
+  const fs::path dir = test::ScratchDir();
+  const std::string path = (dir / "camchain.yaml").string();
+  test::WriteText(path,
+                  "cam0:\n  T_cam_imu: [0, -1, 0, 1.5e308, 1, 0, 0, 1.5e308, 0, 0, 1, 0, 0, 0, 0, "
+                  "1]\n  camera_model: omni\n");
+  EXPECT_NE(ErrorOf([&] {
+              ReadCameraExtrinsics(path);
+            }).find("camchain.yaml:2: 'T_cam_imu' has a translation too large to invert"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace fsp
