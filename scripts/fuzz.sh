@@ -136,6 +136,11 @@ run_target() {
   rm -rf "$tmp"
 }
 
+if [ -d "$DATA" ]; then
+  echo "seeds: fuzz/corpus/, assets/ and pieces of the shared data in $DATA"
+else
+  echo "seeds: fuzz/corpus/ and assets/ only (no shared data at $DATA: set FSP_TEST_DATA)"
+fi
 for t in "${TARGETS[@]}"; do
   seed_shared "$t"
   seed_assets "$t"
