@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <system_error>
 
 #include "fsp/common/error.h"
 #include "yaml_util.h"
@@ -23,6 +24,29 @@ std::string Num(double v) {
   char buf[64];
   const auto res = std::to_chars(buf, buf + sizeof(buf), v);
   return std::string(buf, res.ptr);
+}
+
+// 2^63 as a double: doubles in (-2^63, 2^63) convert to int64 exactly (they are integers there
+// once rounded).
+constexpr double kInt64Limit = 9223372036854775808.0;
+
+// An integer number of nanoseconds: written as an integer (exact over all of int64), or in a
+// floating-point form that is an integer within int64 ("1.5e9").
+int64_t ParseNanoseconds(const YamlFile& f, const YAML::Node& node) {
+  const std::string name = "time_offset_ns";
+  if (node.IsScalar()) {
+    const std::string& s = node.Scalar();
+    int64_t v = 0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (ec == std::errc() && end == s.data() + s.size()) return v;
+    if (ec == std::errc::result_out_of_range)
+      f.Fail(node, "'" + name + "' is out of range (int64 nanoseconds): '" + s + "'");
+  }
+  const double v = f.Double(node, name);
+  if (v != std::floor(v)) f.Fail(node, "'" + name + "' is not an integer");
+  if (!(std::abs(v) < kInt64Limit))
+    f.Fail(node, "'" + name + "' is out of range (int64 nanoseconds): '" + node.Scalar() + "'");
+  return static_cast<int64_t>(v);
 }
 
 // The four Kalibr densities plus the rate ("rate_hz" in EuRoC/FSP files, "update_rate" in
@@ -97,8 +121,12 @@ void ParseEuroc(const YamlFile& f, bool check_model, Calibration* c) {
 // cam0's T_B_C from T_imu_cam, or T_cam_imu inverted.
 Rigid3 ParseKalibrTBC(const YamlFile& f, const YAML::Node& cam) {
   if (cam["T_imu_cam"]) return f.Transform(cam["T_imu_cam"], "T_imu_cam");  // camera -> IMU already
-  if (cam["T_cam_imu"])
-    return f.Transform(cam["T_cam_imu"], "T_cam_imu").Inverse();  // T_C_B -> T_B_C
+  if (cam["T_cam_imu"]) {
+    const Rigid3 T_B_C = f.Transform(cam["T_cam_imu"], "T_cam_imu").Inverse();  // T_C_B -> T_B_C
+    if (!T_B_C.translation().allFinite())
+      f.Fail(cam["T_cam_imu"], "'T_cam_imu' has a translation too large to invert");
+    return T_B_C;
+  }
   f.Fail(cam, "cam0 has neither T_imu_cam nor T_cam_imu");
 }
 
@@ -106,7 +134,10 @@ Rigid3 ParseKalibrTBC(const YamlFile& f, const YAML::Node& cam) {
 // imu-cam chain), or the four density keys inside cam0 or at the top (DM-VIO's camchains).
 void ParseKalibrTimeshiftAndNoise(const YamlFile& f, const YAML::Node& cam, Calibration* c) {
   if (cam["timeshift_cam_imu"]) {
-    c->time_offset_ns = std::llround(f.Double(cam["timeshift_cam_imu"], "timeshift_cam_imu") * 1e9);
+    const double ns = f.Double(cam["timeshift_cam_imu"], "timeshift_cam_imu") * 1e9;
+    if (!(std::abs(ns) < kInt64Limit))
+      f.Fail(cam["timeshift_cam_imu"], "'timeshift_cam_imu' is out of range (|t| < 9.2e9 s)");
+    c->time_offset_ns = std::llround(ns);
   }
   const YAML::Node& root = f.root();
   YAML::Node noise;
@@ -150,12 +181,7 @@ void ParseFsp(const YamlFile& f, bool check_model, Calibration* c) {
   c->camera.cy = f.Double(f.Require(cam, "cy"), "cy");
   ParseDistortion(f, cam["distortion"], "distortion", &c->camera);
   if (cam["rate_hz"]) c->camera_rate_hz = f.Double(cam["rate_hz"], "rate_hz");
-  if (root["time_offset_ns"]) {
-    const double off = f.Double(root["time_offset_ns"], "time_offset_ns");
-    if (off != std::floor(off))
-      f.Fail(root["time_offset_ns"], "'time_offset_ns' is not an integer");
-    c->time_offset_ns = static_cast<int64_t>(off);
-  }
+  if (root["time_offset_ns"]) c->time_offset_ns = ParseNanoseconds(f, root["time_offset_ns"]);
   if (root["imu"]) {
     c->imu = ParseImuNoise(f, root["imu"]);
     c->imu_source = f.path();

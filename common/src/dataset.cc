@@ -103,9 +103,35 @@ void CheckOverlap(const std::vector<int64_t>& frames, const std::vector<ImuSampl
   }
 }
 
+// Fails unless every time the pipeline forms fits in int64 nanoseconds: a frame time plus the
+// calibration's time offset, and the difference of any two frame or IMU times (frames and IMU
+// together span less than 292 years). FRAMES and IMU are in increasing time order.
+void CheckTimeRange(const std::vector<int64_t>& frames, const std::vector<ImuSample>& imu,
+                    const std::string& first_frame, const std::string& imu_path,
+                    const Calibration& calib) {
+  int64_t first = 0, last = 0;
+  if (__builtin_add_overflow(frames.front(), calib.time_offset_ns, &first) ||
+      __builtin_add_overflow(frames.back(), calib.time_offset_ns, &last)) {
+    throw InputError(calib.source, 0,
+                     "time_offset_ns " + std::to_string(calib.time_offset_ns) +
+                         " moves the frame times (" + std::to_string(frames.front()) + " to " +
+                         std::to_string(frames.back()) + " ns, the first frame " + first_frame +
+                         ") out of the range of int64 nanoseconds");
+  }
+  const int64_t lo = std::min(first, imu.front().t_ns), hi = std::max(last, imu.back().t_ns);
+  int64_t span = 0;
+  if (__builtin_sub_overflow(hi, lo, &span)) {
+    throw InputError(imu_path, 0,
+                     "the frames (the first " + first_frame + ") and the IMU samples span " +
+                         std::to_string(lo) + " to " + std::to_string(hi) +
+                         " ns, more than 292 years: are the timestamps nanoseconds?");
+  }
+}
+
 std::unique_ptr<Source> Finish(InputKind kind, Calibration calib, internal::FrameList frames,
                                const std::string& imu_path, const SourceOptions& options) {
   std::vector<ImuSample> imu = ReadImuCsv(imu_path);
+  CheckTimeRange(frames.t_ns, imu, frames.decoder->Name(0), imu_path, calib);
   auto source = std::make_unique<RecordedSource>(kind, std::move(calib), std::move(frames),
                                                  std::move(imu), options.decode_images);
   CheckOverlap(source->frame_times(), source->imu(), imu_path, source->calibration());

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 
 #include "fsp/common/atomic_file.h"
 #include "fsp/common/csv.h"
@@ -20,7 +21,10 @@ std::vector<CornerRow> ReadCornerRows(const std::string& path) {
     CornerRow row;
     row.line = reader.line();
     row.t_ns = reader.Int64(f, 0, "t_ns");
-    row.object_id = static_cast<int>(reader.Int64(f, 1, "object_id"));
+    const int64_t id = reader.Int64(f, 1, "object_id");
+    if (id < std::numeric_limits<int>::min() || id > std::numeric_limits<int>::max())
+      reader.Fail("column 2 (object_id) is out of range: '" + f[1] + "'");
+    row.object_id = static_cast<int>(id);
     static const char* kNames[8] = {"u1", "v1", "u2", "v2", "u3", "v3", "u4", "v4"};
     for (int j = 0; j < 4; ++j) {
       row.corners[j] = Vec2(reader.Double(f, 2 + 2 * j, kNames[2 * j]),
@@ -49,11 +53,13 @@ void WriteCornerRows(const std::vector<CornerRow>& rows, const std::string& path
   WriteFileAtomically(path, "observations csv", [&](std::ostream& out) {
     out << "# t_ns,object_id,u1,v1,u2,v2,u3,v3,u4,v4"
         << (with_flag ? ",fully_visible,visible_corners" : "") << "\n";
-    char buf[64];
+    // "%.4f" of a double is at most 309 integer digits, the sign, the point and 4 decimals.
+    char buf[2 * 320];
     for (const CornerRow& r : rows) {
       out << r.t_ns << ',' << r.object_id;
       for (const Vec2& c : r.corners) {
-        std::snprintf(buf, sizeof(buf), ",%.4f,%.4f", c.x(), c.y());
+        const int n = std::snprintf(buf, sizeof(buf), ",%.4f,%.4f", c.x(), c.y());
+        FSP_CHECK(n > 0 && static_cast<size_t>(n) < sizeof(buf));
         out << buf;
       }
       if (with_flag) {

@@ -153,6 +153,9 @@ std::array<Vec3, 4> CheckRectangle(const Reader& r, const YAML::Node& node,
                                    const std::string& where, const std::array<Vec3, 4>& s) {
   const Vec3 e1 = s[1] - s[0], e3 = s[3] - s[0];
   const double w = e1.norm(), h = e3.norm();
+  if (!std::isfinite(w) || !std::isfinite(h) || !std::isfinite(e1.cross(e3).norm())) {
+    r.Fail(node, where + ": corners too far apart (sides beyond the range of doubles)");
+  }
   if (w < 1e-3 || h < 1e-3 || e1.cross(e3).norm() < 1e-6) {
     r.Fail(node, where + ": zero-area rectangle (width " + Fmt(w) + " m, height " + Fmt(h) + " m)");
   }
@@ -227,6 +230,16 @@ SceneObject ParseObject(const Reader& r, const YAML::Node& node, size_t index) {
     const Mat3 R_W_O = RotFromRpy(rpy[0], rpy[1], rpy[2]);
     const Vec3 x = R_W_O.col(0), y = R_W_O.col(1);
     obj.corners_W = {s1, s1 + w * x, s1 + w * x + h * y, s1 + h * y};
+    // Far from the origin a small rectangle's corners round to fewer distinct points (or overflow).
+    const double tol = 1e-6;
+    for (const Vec3& c : obj.corners_W) {
+      if (!c.allFinite()) r.Fail(node, label + ": a corner is not finite (position too large)");
+    }
+    if (std::abs(obj.width() - w) > tol * w || std::abs(obj.height() - h) > tol * h) {
+      r.Fail(node, label + ": position " + Fmt(s1.stableNorm()) +
+                       " m from the origin is too far for a " + Fmt(w) + " x " + Fmt(h) +
+                       " m rectangle (its corners do not round to one)");
+    }
   }
 
   obj.texture = DefaultTexture(obj.object_class);

@@ -173,7 +173,11 @@ Trajectory Trajectory::FromPoses(const std::vector<StampedPose>& poses,
   const int64_t t0_ns = poses.front().t_ns;
   std::vector<double> t(poses.size()), yaw(poses.size());
   for (size_t i = 0; i < poses.size(); ++i) {
-    t[i] = static_cast<double>(poses[i].t_ns - t0_ns) * 1e-9;
+    int64_t dt_ns = 0;
+    if (__builtin_sub_overflow(poses[i].t_ns, t0_ns, &dt_ns)) {
+      throw InputError("pose " + std::to_string(i) + " is more than 292 years after the first");
+    }
+    t[i] = static_cast<double>(dt_ns) * 1e-9;
     if (i > 0 && !(t[i] > t[i - 1])) {
       throw InputError("pose times must strictly increase (pose " + std::to_string(i) + ")");
     }
@@ -183,8 +187,15 @@ Trajectory Trajectory::FromPoses(const std::vector<StampedPose>& poses,
     if (i > 0) yaw[i] = yaw[i - 1] + std::remainder(yaw[i] - yaw[i - 1], 2.0 * kPi);
   }
   const double span = t.back();
-  const int knots = static_cast<int>(std::floor(span / options.pose_knot_s + 1e-9)) + 1;
-  if (knots < 2) throw InputError("the poses span less than one knot interval");
+  const double intervals = std::floor(span / options.pose_knot_s + 1e-9);
+  if (intervals < 1.0) throw InputError("the poses span less than one knot interval");
+  if (intervals >= kMaxPoseKnots) {
+    std::ostringstream os;
+    os << "the poses span " << span << " s: more than " << kMaxPoseKnots
+       << " knots of pose_knot_s = " << options.pose_knot_s << " s";
+    throw InputError(os.str());
+  }
+  const int knots = static_cast<int>(intervals) + 1;
 
   // Each knot: Gaussian-weighted mean (sigma = pose_smoothing_s, window +-3 sigma) of the poses'
   // positions and yaw; without smoothing, linear interpolation between the neighbouring poses.

@@ -1,10 +1,14 @@
 // Bad input: every problem gives one clear line naming the file (and line) and a non-zero exit,
 // both from the library (InputError) and through `fsp info`. Fixtures are small files in a scratch
 // dir.
+#include <limits>
+
 #include <gtest/gtest.h>
 
 #include "dataset_fixtures.h"
+#include "fsp/common/calibration.h"
 #include "fsp/common/dataset.h"
+#include "fsp/common/observations_io.h"
 #include "test_util.h"
 
 namespace fsp {
@@ -270,6 +274,105 @@ TEST_F(BadInput, VideoAndFolderInputs) {
 
   // A missing --imu file.
   EXPECT_EQ(open(folder.string(), calib, imu + ".missing"), imu + ".missing: IMU csv not found");
+}
+
+// A time offset that moves the frame times out of int64 nanoseconds (undefined behaviour when it
+// was added), and frames and IMU samples spanning more than 292 years (Summarize's differences
+// overflowed): clear errors.
+TEST_F(BadInput, TimeOffsetBeyondInt64) {
+  test::WriteText(mav0_ / "cam0" / "sensor.yaml",
+                  "camera: {width: 32, height: 24, fx: 30, fy: 30, cx: 16, cy: 12}\n"
+                  "T_B_C: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n"
+                  "time_offset_ns: 9223372036000000000\n");
+  const std::string what = LibraryError();
+  EXPECT_NE(what.find("sensor.yaml: time_offset_ns 9223372036000000000 moves the frame times"),
+            std::string::npos)
+      << what;
+  EXPECT_NE(what.find("out of the range of int64 nanoseconds"), std::string::npos) << what;
+}
+
+TEST_F(BadInput, TimesSpanMoreThanInt64) {
+  test::WriteText(mav0_ / "imu0" / "data.csv",
+                  "-9000000000000000000,0,0,0,0,0,9.81\n9000000000000000000,0,0,0,0,0,9.81\n");
+  const std::string what = LibraryError();
+  EXPECT_NE(what.find("imu0/data.csv: the frames (the first "), std::string::npos) << what;
+  EXPECT_NE(what.find("more than 292 years"), std::string::npos) << what;
+}
+
+// Findings of the fuzz targets (fuzz/README.md), each with its minimal input, and what reading
+// the readers beside them showed.
+
+// fuzz_corners_csv: a corner of 4e70 px was read, but written back cut to 63 characters (the
+// writer's fixed buffer): the file read back held another number.
+TEST(FuzzFindings, CornerRowsWithHugeCoordinateRoundTrip) {
+  const fs::path dir = test::ScratchDir();
+  test::WriteText(dir / "corners.csv", "0,2,10,4e70,30,20,30,5,10,5\n");
+  const std::vector<CornerRow> rows = ReadCornerRows((dir / "corners.csv").string());
+  ASSERT_EQ(rows.size(), 1u);
+  WriteCornerRows(rows, (dir / "written.csv").string(), true);
+  const std::vector<CornerRow> back = ReadCornerRows((dir / "written.csv").string());
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_EQ(back[0].corners[0].y(), 4e70);
+}
+
+// An object id beyond int was wrapped silently (4294967297 read as 1).
+TEST(FuzzFindings, CornerRowObjectIdOutOfRange) {
+  const fs::path dir = test::ScratchDir();
+  test::WriteText(dir / "corners.csv", "0,1,1,1,2,1,2,2,1,2\n0,4294967297,1,1,2,1,2,2,1,2\n");
+  const std::string what = ErrorOf([&] { ReadCornerRows((dir / "corners.csv").string()); });
+  EXPECT_NE(what.find("corners.csv:2: column 2 (object_id) is out of range"), std::string::npos)
+      << what;
+}
+
+// fsp calib.yaml: a time_offset_ns of 1e30 was converted to int64 (undefined behaviour) and one
+// beyond 2^53 was rounded through a double; now every int64 reads exactly and the rest is an error.
+TEST(FuzzFindings, CalibTimeOffsetOutOfRange) {
+  const fs::path dir = test::ScratchDir();
+  const std::string head =
+      "camera: {width: 32, height: 24, fx: 30, fy: 30, cx: 16, cy: 12}\n"
+      "T_B_C: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n";
+  const std::string path = (dir / "calib.yaml").string();
+  test::WriteText(path, head + "time_offset_ns: 1e30\n");
+  EXPECT_NE(ErrorOf([&] {
+              ReadCalibration(path);
+            }).find("calib.yaml:3: 'time_offset_ns' is out of range (int64 nanoseconds): '1e30'"),
+            std::string::npos);
+  test::WriteText(path, head + "time_offset_ns: 9223372036854775808\n");
+  EXPECT_NE(ErrorOf([&] { ReadCalibration(path); }).find("out of range"), std::string::npos);
+  test::WriteText(path, head + "time_offset_ns: 9007199254740993\n");
+  EXPECT_EQ(ReadCalibration(path).time_offset_ns, 9007199254740993);
+  test::WriteText(path, head + "time_offset_ns: -9223372036854775808\n");
+  EXPECT_EQ(ReadCalibration(path).time_offset_ns, std::numeric_limits<int64_t>::min());
+  test::WriteText(path, head + "time_offset_ns: -1.5e9\n");
+  EXPECT_EQ(ReadCalibration(path).time_offset_ns, -1'500'000'000);
+}
+
+// Kalibr: timeshift_cam_imu: 1e300 gave llround's unspecified result (INT64_MIN) silently.
+TEST(FuzzFindings, KalibrTimeshiftOutOfRange) {
+  const fs::path dir = test::ScratchDir();
+  const std::string path = (dir / "camchain.yaml").string();
+  test::WriteText(path,
+                  "cam0:\n  T_imu_cam: [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]\n"
+                  "  intrinsics: [30, 30, 16, 12]\n  resolution: [32, 24]\n"
+                  "  timeshift_cam_imu: 1e300\n");
+  EXPECT_NE(ErrorOf([&] {
+              ReadCalibration(path);
+            }).find("camchain.yaml:5: 'timeshift_cam_imu' is out of range"),
+            std::string::npos);
+}
+
+// Kalibr T_cam_imu with a translation near the largest double: its inverse overflowed to inf and
+// ReadCameraExtrinsics returned it.
+TEST(FuzzFindings, KalibrExtrinsicsTooLargeToInvert) {
+  const fs::path dir = test::ScratchDir();
+  const std::string path = (dir / "camchain.yaml").string();
+  test::WriteText(path,
+                  "cam0:\n  T_cam_imu: [0, -1, 0, 1.5e308, 1, 0, 0, 1.5e308, 0, 0, 1, 0, 0, 0, 0, "
+                  "1]\n  camera_model: omni\n");
+  EXPECT_NE(ErrorOf([&] {
+              ReadCameraExtrinsics(path);
+            }).find("camchain.yaml:2: 'T_cam_imu' has a translation too large to invert"),
+            std::string::npos);
 }
 
 }  // namespace

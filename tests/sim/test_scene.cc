@@ -200,5 +200,51 @@ TEST(Scene, PoseFileRelativeToTheScene) {
   }
 }
 
+// Findings of fuzz_scene (fuzz/README.md), each with its minimal input.
+
+// A small object far from the origin: its corners rounded to one point (width 0) and the scene
+// loaded; corners beyond the range of doubles passed the rectangle checks (NaN comparisons).
+TEST(SceneFuzzFindings, ObjectsBeyondDoublePrecision) {
+  EXPECT_NE(ErrorOf(Replace(kScene, "position: [1, 0, 0], rpy_deg: [90, 0, 0], width: 0.9",
+                            "position: [1e300, 0, 0], rpy_deg: [90, 0, 0], width: 0.9"))
+                .find("scene.yaml:7: objects[1] (id 2): position 1e+300 m from the origin is too "
+                      "far for a 0.9 x 2 m rectangle"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Replace(kScene, "position: [1, 0, 0], rpy_deg: [90, 0, 0], width: 0.9",
+                            "position: [1.7e308, 0, 0], rpy_deg: [0, 0, 0], width: 1e308"))
+                .find("objects[1] (id 2): a corner is not finite"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(Replace(kScene, "[[1, 0, 0], [1.9, 0, 0], [1.9, 0, 2], [1, 0, 2]]",
+                            "[[-1e308, 0, 0], [1e308, 0, 0], [1e308, 0, 2], [-1e308, 0, 2]]"))
+                .find("objects[0] (id 1): corners too far apart"),
+            std::string::npos);
+}
+
+// A pose file resampled at knot_s 1e-300 converted 3e300 knots to int (undefined behaviour), and
+// pose times 292 years apart overflowed their int64 difference.
+TEST(SceneFuzzFindings, PoseFileKnotsAndSpan) {
+  const auto dir = test::ScratchDir();
+  auto load = [&](const std::string& knot_s, const std::string& tum) {
+    std::ofstream(dir / "poses.tum") << tum;
+    std::ofstream(dir / "scene.yaml") << Replace(
+        kScene,
+        "waypoints: [[0, 2, 1.5, 1.2, -90], [1, 2, 1.5, 1.2, -90], [2.5, 2.3, 1.2, 1.2, -80]]",
+        "{file: poses.tum, knot_s: " + knot_s + "}");
+    try {
+      LoadScene((dir / "scene.yaml").string());
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string poses = "0 1 1 1 0 0 0 1\n3 2 1 1 0 0 0 1\n";
+  EXPECT_NE(load("1e-300", poses).find("the poses span 3 s: more than 100000 knots"),
+            std::string::npos);
+  EXPECT_NE(load("0.1", "-9000000000 1 1 1 0 0 0 1\n9000000000 1 1 1 0 0 0 1\n")
+                .find("pose 1 is more than 292 years after the first"),
+            std::string::npos);
+  EXPECT_EQ(load("0.1", poses), "");
+}
+
 }  // namespace
 }  // namespace fsp::sim

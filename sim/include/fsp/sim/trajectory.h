@@ -62,6 +62,9 @@ struct TrajectoryOptions {
   bool Check(std::string* why) const;
 };
 
+// Most knots a pose file may be resampled into (FromPoses): 2.8 hours at the default 0.1 s.
+constexpr int kMaxPoseKnots = 100'000;
+
 // A C3 trajectory (continuous position, velocity, acceleration and jerk, hence continuous angular
 // velocity) through waypoints: one degree-7 Hermite polynomial per segment in (x, y, z, yaw),
 // matching position, velocity, acceleration and jerk at both ends. Waypoint derivatives: velocity
@@ -85,7 +88,7 @@ class Trajectory {
   // knots: the curve passes the pose of file time t at t + 3 pose_knot_s (0.3 s at the default)
   // and ends 6 knots after the file. Roll and pitch are not taken from
   // the file: they follow the flight model. Throws InputError as above, or when the poses span
-  // less than two knots.
+  // less than two knots or more than kMaxPoseKnots (or more than 292 years).
   static Trajectory FromPoses(const std::vector<StampedPose>& poses,
                               const TrajectoryOptions& options = TrajectoryOptions());
 
