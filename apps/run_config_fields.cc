@@ -257,6 +257,23 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.tracker.min_visible", &f.tracker.min_visible, kNonNegative},
       {"frontend.tracker.refresh_every", &f.tracker.refresh_every, kNonNegative},
       {"frontend.tracker.refresh_appearance", &f.tracker.refresh_appearance, kNonNegative},
+      {"frontend.points.enabled", &f.points.enabled, kAny},
+      {"frontend.points.max_points", &f.points.max_points, kNonNegative},
+      {"frontend.points.cell_px", &f.points.cell_px, kNonNegative},
+      {"frontend.points.min_distance_px", &f.points.min_distance_px, kNonNegative},
+      {"frontend.points.refill_fraction", &f.points.refill_fraction, kNonNegative},
+      {"frontend.points.empty_cell_retry_frames", &f.points.empty_cell_retry_frames, kNonNegative},
+      {"frontend.points.min_corner_gradient", &f.points.min_corner_gradient, kNonNegative},
+      {"frontend.points.border_px", &f.points.border_px, kNonNegative},
+      {"frontend.points.lk_window", &f.points.lk_window, kNonNegative},
+      {"frontend.points.lk_levels", &f.points.lk_levels, kNonNegative},
+      {"frontend.points.lk_iterations", &f.points.lk_iterations, kNonNegative},
+      {"frontend.points.max_fb_error_px", &f.points.max_fb_error_px, kNonNegative},
+      {"frontend.points.ransac_px", &f.points.ransac_px, kNonNegative},
+      {"frontend.points.ransac_confidence", &f.points.ransac_confidence, kNonNegative},
+      {"frontend.points.ransac_max_iterations", &f.points.ransac_max_iterations, kNonNegative},
+      {"frontend.points.use_rotation_prior", &f.points.use_rotation_prior, kAny},
+      {"frontend.points.seed", &f.points.seed, kAny},
   };
 }
 
