@@ -264,6 +264,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.points.refill_fraction", &f.points.refill_fraction, kNonNegative},
       {"frontend.points.empty_cell_retry_frames", &f.points.empty_cell_retry_frames, kNonNegative},
       {"frontend.points.min_corner_gradient", &f.points.min_corner_gradient, kNonNegative},
+      {"frontend.points.subpixel_px", &f.points.subpixel_px, kNonNegative},
       {"frontend.points.border_px", &f.points.border_px, kNonNegative},
       {"frontend.points.lk_window", &f.points.lk_window, kNonNegative},
       {"frontend.points.lk_levels", &f.points.lk_levels, kNonNegative},

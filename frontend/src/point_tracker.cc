@@ -27,6 +27,7 @@ bool PointTrackerOptions::Check(std::string* why) const {
     return fail("refill_fraction must be in (0, 1]");
   if (empty_cell_retry_frames < 0) return fail("empty_cell_retry_frames must be >= 0");
   if (!(min_corner_gradient >= 0.0)) return fail("min_corner_gradient must be >= 0");
+  if (subpixel_px < 0 || subpixel_px > 10) return fail("subpixel_px must be in [0, 10]");
   if (!(border_px >= 0.0)) return fail("border_px must be >= 0");
   if (lk_window < 5 || lk_window % 2 == 0) return fail("lk_window must be odd and >= 5");
   if (lk_levels < 0 || lk_levels > 6) return fail("lk_levels must be in [0, 6]");
@@ -327,6 +328,21 @@ int PointTracker::Impl::Detect(const cv::Mat& gray) {
     }
     budget -= static_cast<int>(found.size());
     added += static_cast<int>(found.size());
+  }
+  // The new points moved onto their corner's vertex (the flow then follows the vertex, which
+  // stays put as the view deforms the patch, not a pixel beside it, which does not).
+  if (added > 0 && o.subpixel_px > 0) {
+    std::vector<cv::Point2f> fresh;
+    for (size_t i = points.size() - added; i < points.size(); ++i) fresh.push_back(points[i].px);
+    cv::cornerSubPix(gray, fresh, cv::Size(o.subpixel_px, o.subpixel_px), cv::Size(-1, -1),
+                     cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.01));
+    for (size_t i = 0; i < fresh.size(); ++i) {
+      Point& p = points[points.size() - added + i];
+      const cv::Point2f d = fresh[i] - p.px;
+      if (d.x * d.x + d.y * d.y <= o.subpixel_px * o.subpixel_px && Inside(fresh[i]))
+        p.px = fresh[i];
+      p.und = ToUndistorted(Vec2(p.px.x, p.px.y));
+    }
   }
   return added;
 }
