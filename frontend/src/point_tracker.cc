@@ -339,7 +339,8 @@ int PointTracker::Impl::Detect(const cv::Mat& gray) {
     for (size_t i = 0; i < fresh.size(); ++i) {
       Point& p = points[points.size() - added + i];
       const cv::Point2f d = fresh[i] - p.px;
-      if (d.x * d.x + d.y * d.y <= o.subpixel_px * o.subpixel_px && Inside(fresh[i]))
+      if (d.x * d.x + d.y * d.y <= o.subpixel_px * o.subpixel_px && Inside(fresh[i]) &&
+          CellOf(fresh[i].x, fresh[i].y) == CellOf(p.px.x, p.px.y))  // the cell's count holds
         p.px = fresh[i];
       p.und = ToUndistorted(Vec2(p.px.x, p.px.y));
     }
