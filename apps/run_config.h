@@ -18,6 +18,7 @@
 //     rect: {...}         # RectDetectorOptions
 //     apriltag: {...}     # AprilTagDetectorOptions
 //     tracker: {...}      # ObjectTrackerOptions
+//     points: {...}       # PointTrackerOptions (enabled: point features beside the objects)
 //
 // An unknown key, a value of the wrong type or out of range throws InputError("FILE:LINE: KEY:
 // what").

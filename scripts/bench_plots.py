@@ -246,7 +246,7 @@ def sizes(name, runs, path):
 
 
 STAGES = [("track", "track"), ("detect", "detect"), ("associate", "associate"),
-          ("frontend", "front end"), ("backend", "back end")]
+          ("points", "points"), ("frontend", "front end"), ("backend", "back end")]
 
 
 def stage_entries(st):
@@ -267,7 +267,7 @@ def timing(name, runs, path):
             if label not in labels:
                 labels.append(label)
     colours = dict(zip(labels, ["#bcbd22", "#17becf", "#e377c2", "#ff7f0e", "#1f77b4",
-                                "#aec7e8"]))
+                                "#aec7e8", "#9467bd"]))
     # Each configuration takes as many bar slots as it has stages, plus a gap.
     height = 0.8
     centres, y = [], 0.0

@@ -61,6 +61,7 @@ bool FrontEndOptions::Check(std::string* why) const {
   if (!rect.Check(&sub)) return fail("rect: " + sub);
   if (!apriltag.Check(&sub)) return fail("apriltag: " + sub);
   if (!tracker.Check(&sub)) return fail("tracker: " + sub);
+  if (!points.Check(&sub)) return fail("points: " + sub);
   return true;
 }
 
@@ -157,7 +158,7 @@ bool FrontEnd::Impl::TrackAll(FrameWork* w) {
     for (const auto& [id, info] : objects)
       if (info.active) predicted[id] = RotateCorners(info.last, K, *w->prediction.R_Cprev_Ccur);
   bool lost = false;
-  for (const TrackedObject& t : tracker.Track(w->gray, predicted)) {
+  for (const TrackedObject& t : tracker.Track(w->pyramid, predicted)) {
     ObjectInfo& info = objects[t.id];
     // A candidate not confirmed within confirm_within_frames is a stray detection: forgotten (it
     // would keep the detector running on every frame).
@@ -290,8 +291,16 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
     throw InputError(frame.source + ": image is " + std::to_string(gray.cols) + "x" +
                      std::to_string(gray.rows) + " but the calibration is " +
                      std::to_string(m.camera.width) + "x" + std::to_string(m.camera.height));
-  Impl::FrameWork w(gray, prediction, options_);
   Stopwatch sw;
+  // One pyramid for the objects' flow and the points' (each uses its own window and levels).
+  const bool points = m.points != nullptr;
+  const FlowPyramid pyramid =
+      BuildFlowPyramid(gray,
+                       points ? std::max(options_.tracker.lk_window, options_.points.lk_window)
+                              : options_.tracker.lk_window,
+                       points ? std::max(options_.tracker.lk_levels, options_.points.lk_levels)
+                              : options_.tracker.lk_levels);
+  Impl::FrameWork w(gray, pyramid, prediction, options_);
   const bool lost_now = m.TrackAll(&w);
   w.result.times.Add("track", sw.Lap());
   std::vector<Detection> dets;
@@ -313,6 +322,10 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
   m.ReacquirePredicted(&w);
   w.result.times.Add("associate", sw.Lap());
   m.Emit(frame.t_ns, &w);
+  if (points) {
+    w.result.points = m.points->Track(pyramid, frame.t_ns, prediction.R_Cprev_Ccur).points;
+    w.result.times.Add("points", sw.Lap());
+  }
   ++m.frame_index;
   return std::move(w.result);
 }

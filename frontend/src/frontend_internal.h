@@ -8,6 +8,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <set>
 #include <vector>
 
@@ -17,8 +18,10 @@
 #include "fsp/common/types.h"
 #include "fsp/frontend/apriltag_detector.h"
 #include "fsp/frontend/detection.h"
+#include "fsp/frontend/flow_pyramid.h"
 #include "fsp/frontend/frontend.h"
 #include "fsp/frontend/object_tracker.h"
+#include "fsp/frontend/point_tracker.h"
 #include "fsp/frontend/rect_detector.h"
 
 namespace fsp::frontend {
@@ -61,6 +64,7 @@ struct FrontEnd::Impl {
   AprilTagDetector tags;   // full frames (kAprilTag)
   AprilTagDetector crops;  // tag-like rectangles (kRect): small crops, decimate 1
   ObjectTracker tracker;
+  std::unique_ptr<PointTracker> points;  // points.enabled
   std::map<int, ObjectInfo> objects;
   int next_rect_id = 0;
   int frame_index = 0;
@@ -84,13 +88,16 @@ struct FrontEnd::Impl {
                   t.refine = o.rect;  // one set of refinement options for detector and tracker
                   return t;
                 }()),
+        points(o.points.enabled ? std::make_unique<PointTracker>(cam, o.points) : nullptr),
         next_rect_id(o.first_rect_id) {}
 
   // What one Process call builds up.
   struct FrameWork {
-    FrameWork(const cv::Mat& g, const FramePrediction& p, const FrontEndOptions& opt)
-        : gray(g), prediction(p), o(opt) {}
+    FrameWork(const cv::Mat& g, const FlowPyramid& pyr, const FramePrediction& p,
+              const FrontEndOptions& opt)
+        : gray(g), pyramid(pyr), prediction(p), o(opt) {}
     const cv::Mat& gray;
+    const FlowPyramid& pyramid;  // GRAY's: the objects' flow and the points' use it
     const FramePrediction& prediction;
     const FrontEndOptions& o;
     FrontEndResult result;

@@ -424,9 +424,9 @@ TrackedObject ObjectTracker::Impl::TrackOne(Object* ob, const cv::Mat& gray,
 }
 
 std::vector<TrackedObject> ObjectTracker::Impl::Track(const cv::Mat& gray,
+                                                      const std::vector<cv::Mat>& pyr,
                                                       const std::map<int, Corners>& predicted) {
   CheckFrame(gray);
-  std::vector<cv::Mat> pyr = Pyramid(gray);
   std::vector<TrackedObject> out;
   std::vector<Object*> act;
   for (auto& [id, ob] : objects)
@@ -507,7 +507,7 @@ std::vector<TrackedObject> ObjectTracker::Impl::Track(const cv::Mat& gray,
     for (size_t a = 0; a < act.size(); ++a)
       out.push_back(TrackOne(act[a], gray, levels, H_pred[a], p1, good, offset[a]));
   }
-  prev_pyr.swap(pyr);
+  prev_pyr = pyr;
   prev_gray = gray.clone();
   return out;
 }

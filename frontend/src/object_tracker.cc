@@ -13,9 +13,11 @@
 #include "fsp/common/error.h"
 #include "fsp/common/median.h"
 #include "fsp/frontend/edge_refine.h"
+#include "fsp/frontend/flow_pyramid.h"
 #include "fsp/frontend/rect_geometry.h"
 #include "object_tracker_internal.h"
 #include "rect_internal.h"
+#include "shi_tomasi.h"
 
 namespace fsp::frontend {
 namespace object_tracker_internal {
@@ -91,9 +93,7 @@ void ObjectTracker::Impl::CheckFrame(const cv::Mat& gray) const {
 }
 
 std::vector<cv::Mat> ObjectTracker::Impl::Pyramid(const cv::Mat& gray) const {
-  std::vector<cv::Mat> pyr;
-  cv::buildOpticalFlowPyramid(gray, pyr, cv::Size(o.lk_window, o.lk_window), o.lk_levels, true);
-  return pyr;
+  return BuildFlowPyramid(gray, o.lk_window, o.lk_levels).levels;
 }
 
 // Makes `gray` the previous frame (Start / Resume). Unchanged when it is the last tracked frame.
@@ -105,51 +105,10 @@ void ObjectTracker::Impl::SetPrevFrame(const cv::Mat& gray) {
   prev_pyr = Pyramid(prev_gray);
 }
 
-// Shi-Tomasi corners of `img` inside `mask`, strongest first, at least `min_dist` apart, whose
-// weaker structure-tensor eigenvalue exceeds both 1 % of the strongest and the absolute
-// min_corner_gradient (a plain surface's pixel noise is not a feature: LK on it wanders).
+// Shi-Tomasi corners of `img` inside `mask` (ShiTomasiCorners), at most 2 max_points.
 std::vector<cv::Point2f> ObjectTracker::Impl::Corners2D(const cv::Mat& img, const cv::Mat& mask,
                                                         double min_dist) const {
-  constexpr int kBlock = 5;
-  cv::Mat eig;
-  cv::cornerMinEigenVal(img, eig, kBlock, 3, cv::BORDER_REPLICATE);
-  // cornerMinEigenVal scales the 3x3 Sobel (8 x the gradient in grey levels / px) by
-  // 1 / (4 kBlock 255) and sums over the block; its value is half the smaller eigenvalue.
-  const double g = o.min_corner_gradient * 8.0 / (4.0 * kBlock * 255.0);
-  double max_eig = 0.0;
-  cv::minMaxLoc(eig, nullptr, &max_eig, nullptr, nullptr, mask);
-  const float thr = static_cast<float>(std::max(0.01 * max_eig, 0.5 * kBlock * kBlock * g * g));
-  cv::Mat dil;
-  cv::dilate(eig, dil, cv::Mat());
-  std::vector<std::pair<float, cv::Point>> cand;
-  for (int y = 1; y < eig.rows - 1; ++y) {
-    const float* e = eig.ptr<float>(y);
-    const float* d = dil.ptr<float>(y);
-    const uint8_t* m = mask.ptr<uint8_t>(y);
-    for (int x = 1; x < eig.cols - 1; ++x)
-      if (m[x] && e[x] >= thr && e[x] >= d[x]) cand.emplace_back(e[x], cv::Point(x, y));
-  }
-  std::sort(cand.begin(), cand.end(), [](const auto& a, const auto& b) {
-    return a.first != b.first
-               ? a.first > b.first
-               : (a.second.y != b.second.y ? a.second.y < b.second.y : a.second.x < b.second.x);
-  });
-  std::vector<cv::Point2f> out;
-  const double d2 = min_dist * min_dist;
-  for (const auto& c : cand) {
-    bool near = false;
-    for (const cv::Point2f& q : out) {
-      const double dx = q.x - c.second.x, dy = q.y - c.second.y;
-      if (dx * dx + dy * dy < d2) {
-        near = true;
-        break;
-      }
-    }
-    if (near) continue;
-    out.emplace_back(static_cast<float>(c.second.x), static_cast<float>(c.second.y));
-    if (static_cast<int>(out.size()) >= 2 * o.max_points) break;
-  }
-  return out;
+  return ShiTomasiCorners(img, mask, min_dist, o.min_corner_gradient, 2 * o.max_points);
 }
 
 // The quad's four corners as flow points at CORNERS_PX (distorted px), replacing the old corner
@@ -354,7 +313,15 @@ bool ObjectTracker::Start(int id, const cv::Mat& gray, const Corners& corners_un
 
 std::vector<TrackedObject> ObjectTracker::Track(const cv::Mat& gray,
                                                 const std::map<int, Corners>& predicted) {
-  return impl_->Track(gray, predicted);
+  impl_->CheckFrame(gray);
+  return impl_->Track(gray, impl_->Pyramid(gray), predicted);
+}
+
+std::vector<TrackedObject> ObjectTracker::Track(const FlowPyramid& frame,
+                                                const std::map<int, Corners>& predicted) {
+  impl_->CheckFrame(frame.image);
+  FSP_CHECK(frame.window >= options_.lk_window);
+  return impl_->Track(frame.image, frame.Levels(options_.lk_levels), predicted);
 }
 
 bool ObjectTracker::Reacquire(int id, const cv::Mat& gray, const Corners& predicted,

@@ -179,7 +179,9 @@ struct ObjectTracker::Impl {
   TrackedObject TrackOne(Object* ob, const cv::Mat& gray, const std::vector<cv::Mat>& levels,
                          const Mat3& H_pred, const std::vector<cv::Point2f>& p1,
                          const std::vector<uint8_t>& good, size_t offset);
-  std::vector<TrackedObject> Track(const cv::Mat& gray, const std::map<int, Corners>& predicted);
+  // PYR: GRAY's flow pyramid (Pyramid, or a shared one's first lk_levels levels).
+  std::vector<TrackedObject> Track(const cv::Mat& gray, const std::vector<cv::Mat>& pyr,
+                                   const std::map<int, Corners>& predicted);
 };
 
 }  // namespace fsp::frontend

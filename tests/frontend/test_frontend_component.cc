@@ -315,6 +315,30 @@ TEST(FrontEndComponent, ReacquiredWhereTheMapPredictsItNearTheBorder) {
 }
 
 // The options refuse what would make no sense, with a reason: a negative or NaN margin or bound.
+// Point features ride along on the objects' pyramid: turned on, they change no object
+// observation; turned off, there are none.
+TEST(FrontEndComponent, PointsChangeNoObjectObservation) {
+  FrontEndOptions off;
+  off.points.enabled = false;
+  FrontEnd with(Camera()), without(Camera(), off);
+  std::vector<Corners> truth;
+  int points = 0;
+  for (int k = 0; k < 40; ++k) {
+    const Frame f = MakeFrame(k, 1000, 1000, &truth);
+    const FrontEndResult a = with.Process(f), b = without.Process(f);
+    ASSERT_EQ(a.observations.size(), b.observations.size()) << "frame " << k;
+    for (size_t i = 0; i < a.observations.size(); ++i) {
+      EXPECT_EQ(a.observations[i].object_id, b.observations[i].object_id);
+      EXPECT_EQ(a.observations[i].corners, b.observations[i].corners);
+      EXPECT_EQ(a.observations[i].sigma_px, b.observations[i].sigma_px);
+    }
+    EXPECT_TRUE(b.points.empty());
+    for (const PointObservation& p : a.points) EXPECT_EQ(p.t_ns, f.t_ns);
+    points += static_cast<int>(a.points.size());
+  }
+  EXPECT_GT(points, 40 * 5);  // the rectangles' corners (290 measured)
+}
+
 TEST(FrontEndComponent, OptionsCheckRefusesNegativeBounds) {
   std::string why;
   EXPECT_TRUE(FrontEndOptions().Check(&why)) << why;

@@ -392,6 +392,34 @@ TEST(ObjectTracker, StartTakesTheDetectorsPolaritiesOnAThinFrame) {
   EXPECT_LT(err_on, err_off);
 }
 
+// The FrontEnd's one pyramid per frame, built for the point tracker's window and levels too: the
+// tracker's results are the same as on its own pyramid, to the bit.
+TEST(ObjectTracker, SharedPyramidGivesTheSameResults) {
+  const OneThread one_thread;
+  const cv::Mat tex = Texture(3), bg = Background();
+  const int n = 40;
+  auto corners = [&](int k) {
+    const double t = static_cast<double>(k) / (n - 1);
+    return Pose(0.6, 0.45, Vec3(0.2 * std::sin(3.0 * t), 0.05, 3.0 - 1.2 * t), 0.3 * t, 0.1,
+                0.3 * t);
+  };
+  ObjectTracker own(Camera()), shared(Camera());
+  const cv::Mat f0 = Render(bg, {{tex, corners(0)}}, 1);
+  ASSERT_TRUE(own.Start(7, f0, corners(0)));
+  ASSERT_TRUE(shared.Start(7, f0, corners(0)));
+  for (int k = 1; k < n; ++k) {
+    const cv::Mat img = Render(bg, {{tex, corners(k)}}, 1 + k);
+    const auto a = own.Track(img);
+    const auto b = shared.Track(BuildFlowPyramid(img, 21, 5));
+    ASSERT_EQ(a.size(), 1u);
+    ASSERT_EQ(b.size(), 1u);
+    EXPECT_EQ(a[0].tracked, b[0].tracked);
+    EXPECT_EQ(a[0].keypoints, b[0].keypoints);
+    for (int i = 0; i < 4; ++i) EXPECT_EQ(a[0].corners_undistorted[i], b[0].corners_undistorted[i]);
+    EXPECT_EQ(a[0].appearance, b[0].appearance);
+  }
+}
+
 // The simulator's rendered room (lens distortion, rendered textures, camera motion), 3 s: every
 // object is started (or resumed) on its ground truth when fully visible with sides >= 30 px and
 // scored on the frames where it is fully visible; no corners may be reported for an object that is

@@ -172,6 +172,7 @@ struct Core {
     FrameOutput out;
     out.frontend_ms = sw.Lap();
     out.observations = std::move(fe.observations);
+    out.points = std::move(fe.points);
     out.frontend_times = std::move(fe.times);
     out.detector_ran = fe.detected;
     out.objects_started = fe.started;
@@ -227,6 +228,7 @@ FrameOutput System::AddFrame(const Frame& frame) {
   }
   FrameOutput fe = c.Front(frame, state);
   FrameOutput out = AddObservations(frame.t_ns, fe.observations);
+  out.points = std::move(fe.points);
   out.frontend_times = std::move(fe.frontend_times);
   out.frontend_ms = fe.frontend_ms;
   out.detector_ran = fe.detector_ran;

@@ -79,6 +79,16 @@ struct ObjectObservation {
   bool Complete() const { return seen == kAllCorners; }
 };
 
+// What the front end hands on for one tracked point feature in one frame (frontend/README.md,
+// "Point features"); kept apart from the object observations. A point is one scene point for as
+// long as its id lives: ids are never reused, and a point lost once is never resumed.
+struct PointObservation {
+  int64_t t_ns = 0;
+  int64_t point_id = -1;
+  Vec2 uv_undistorted = Vec2::Zero();  // UNDISTORTED pixels (the back end's, as Corners)
+  int age = 0;  // frames the point was tracked through before this one (0: detected in this frame)
+};
+
 // What the back end and the IMU expect of the next frame, handed to the front end (the front end
 // and the back end never include each other; this plain type is how predictions flow back).
 struct FramePrediction {

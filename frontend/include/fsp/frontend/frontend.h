@@ -21,6 +21,8 @@
 //     view that no detection resumed is looked for at its predicted corners and resumes there
 //     (`reacquire_predicted`); a plain candidate started on it is dropped then
 //     (`reacquire_over_candidates`).
+//  6. points (`points.enabled`): point features tracked beside the objects (PointTracker), on the
+//     same image pyramid as the objects' flow (one per frame), reported apart from the objects.
 //
 // Identities: an AprilTag's id is its object id; plain rectangles get ids from `first_rect_id` up,
 // never reused. Classes: the most frequent class guess of an object's detections.
@@ -37,6 +39,7 @@
 #include "fsp/frontend/apriltag_detector.h"
 #include "fsp/frontend/detection.h"
 #include "fsp/frontend/object_tracker.h"
+#include "fsp/frontend/point_tracker.h"
 #include "fsp/frontend/rect_detector.h"
 
 namespace fsp::frontend {
@@ -199,13 +202,16 @@ struct FrontEndOptions {
   RectDetectorOptions rect;
   AprilTagDetectorOptions apriltag;
   ObjectTrackerOptions tracker;
+  // Point features (step 6); `points.enabled` turns them on.
+  PointTrackerOptions points;
   bool Check(std::string* why) const;
 };
 
 struct FrontEndResult {
   std::vector<ObjectObservation> observations;  // confirmed objects tracked in this frame
-  StageTimes times;                             // "track", "detect", "associate"
-  bool detected = false;                        // the detector ran on this frame
+  std::vector<PointObservation> points;         // live point features (points.enabled), by id
+  StageTimes times;       // "track" (with the frame's pyramid), "detect", "associate", "points"
+  bool detected = false;  // the detector ran on this frame
   int detections = 0;
   int candidates = 0;    // unconfirmed objects being tracked after this frame
   int started = 0;       // objects confirmed in this frame

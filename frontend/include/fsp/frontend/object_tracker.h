@@ -34,6 +34,7 @@
 
 #include "fsp/common/camera.h"
 #include "fsp/common/types.h"
+#include "fsp/frontend/flow_pyramid.h"
 #include "fsp/frontend/rect_detector.h"
 
 namespace fsp::frontend {
@@ -194,6 +195,11 @@ class ObjectTracker {
   // tracker predicts from its own motion. Returns one entry per object active before the call; an
   // object that is lost becomes dormant (its model kept for Similarity and Resume).
   std::vector<TrackedObject> Track(const cv::Mat& gray,
+                                   const std::map<int, Corners>& predicted = {});
+  // The same on a frame whose flow pyramid the caller built (BuildFlowPyramid, shared with other
+  // trackers: the FrontEnd's one pyramid per frame): padded for at least lk_window, its first
+  // lk_levels levels used. The same results as Track(frame.image, predicted).
+  std::vector<TrackedObject> Track(const FlowPyramid& frame,
                                    const std::map<int, Corners>& predicted = {});
 
   // Appearance of candidate corners (undistorted px, s1..s4) in `gray` against object `id`'s model

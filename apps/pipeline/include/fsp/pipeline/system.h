@@ -62,6 +62,9 @@ struct BackendState {
 // What one frame produced.
 struct FrameOutput {
   std::vector<ObjectObservation> observations;  // what the back end was given
+  // The front end's point features (frontend.points.enabled; AddFrame only). The back end does not
+  // use them yet.
+  std::vector<PointObservation> points;
   frontend::StageTimes frontend_times;  // track, detect, associate (empty for AddObservations)
   double frontend_ms = 0.0;
   double backend_ms = 0.0;
