@@ -22,6 +22,7 @@
 #include "fsp/frontend/point_tracker.h"
 #include "point_scenes.h"
 #include "synthetic.h"
+#include "tracker_scenes.h"
 
 namespace fsp::frontend {
 namespace {
@@ -291,13 +292,7 @@ struct TurningCamera {
     cv::Mat f;
     cv::warpPerspective(canvas, f, Mcv, cv::Size(camera.width, camera.height),
                         cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
-    std::mt19937 rng(seed);
-    std::normal_distribution<float> noise(0.f, 2.f);
-    for (int y = 0; y < f.rows; ++y)
-      for (int x = 0; x < f.cols; ++x) f.at<float>(y, x) += noise(rng);
-    cv::Mat out;
-    f.convertTo(out, CV_8U);
-    return out;
+    return tracker_test::WithNoise8U(f, seed);
   }
 };
 

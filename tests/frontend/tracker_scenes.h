@@ -100,6 +100,17 @@ inline cv::Mat H33(const Corners& from, const Corners& to) {
 
 // Renders things over the background. motion_len > 1: box blur of that length along `motion_dir`
 // [rad] (the exposure's motion), before the optics blur and noise.
+// A float image with Gaussian noise (sigma 2 grey levels, seeded) as an 8-bit frame.
+inline cv::Mat WithNoise8U(cv::Mat f, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.f, 2.f);
+  for (int y = 0; y < f.rows; ++y)
+    for (int x = 0; x < f.cols; ++x) f.at<float>(y, x) += noise(rng);
+  cv::Mat out;
+  f.convertTo(out, CV_8U);
+  return out;
+}
+
 inline cv::Mat Render(const cv::Mat& bg, const std::vector<Thing>& things, uint32_t seed,
                       int motion_len = 0, double motion_dir = 0.0) {
   constexpr int kS = 4;
@@ -142,13 +153,7 @@ inline cv::Mat Render(const cv::Mat& bg, const std::vector<Thing>& things, uint3
     cv::filter2D(f, f, -1, k, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
   }
   cv::GaussianBlur(f, f, cv::Size(0, 0), 0.7);
-  std::mt19937 rng(seed);
-  std::normal_distribution<float> noise(0.f, 2.f);
-  for (int y = 0; y < f.rows; ++y)
-    for (int x = 0; x < f.cols; ++x) f.at<float>(y, x) += noise(rng);
-  cv::Mat out;
-  f.convertTo(out, CV_8U);
-  return out;
+  return WithNoise8U(f, seed);
 }
 
 inline Corners Pose(double w, double h, const Vec3& centre, double yaw, double pitch, double roll) {
