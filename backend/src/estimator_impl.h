@@ -67,6 +67,9 @@ struct Keyframe {
   std::vector<ObjectObservation> observations;
   // The frame's point features (PointOptions; empty when disabled or none given).
   std::vector<PointObservation> points;
+  // It saw no object, only live points: the global step (which holds no points) keeps its pose as
+  // the window left it (backend/README.md, "Points").
+  bool points_only = false;
   // Standing still since the previous keyframe (ZeroVelocityOptions): a zero-velocity prior.
   bool still = false;
 };
