@@ -160,6 +160,18 @@ BenchJson EvaluateBenchRun(const std::string& sequence, const fs::path& out,
     row["ate_sim3_m"] = sim3.trajectory->ate.rmse;
     row["scale_err"] = sim3.trajectory->scale_error;
   }
+  // The estimator's own scale σ and variance factor (FSP with a mapped object; absent otherwise),
+  // and the Sim3 scale error in units of that σ: what makes the σ honest or not.
+  if (run.contains("estimator") && run["estimator"].is_object()) {
+    const BenchJson& est = run["estimator"];
+    const double sigma = est.value("scale_sigma", -1.0);
+    if (sigma > 0.0) {
+      row["scale_sigma"] = sigma;
+      if (sim3.trajectory) row["scale_err_sigmas"] = sim3.trajectory->scale_error / sigma;
+    }
+    const double vf = est.value("variance_factor", -1.0);
+    if (vf >= 0.0) row["variance_factor"] = vf;
+  }
   // The causal estimate (what a live user had at each frame), when the run wrote one.
   if (fs::exists(run_dir / "trajectory_online.tum")) {
     eval::EvalPaths causal;
@@ -260,6 +272,28 @@ std::string Num(double v, double scale, int decimals) {
   return buf;
 }
 
+namespace {
+
+// The metric columns of a table row (after "config | runs"), from an Aggregate.
+std::string Columns(const BenchJson& agg, const std::string& objects) {
+  std::ostringstream md;
+  md << Cell(agg, "ate_se3_m", 100, 2) << " | " << Cell(agg, "ate_causal_se3_m", 100, 2) << " | "
+     << Cell(agg, "scale_err", 100, 2) << " | " << Cell(agg, "rpe_trans_m", 100, 3, false) << " / "
+     << Cell(agg, "rpe_rot_deg", 1, 3, false) << " | " << Cell(agg, "corner_err_mean_m", 100, 2)
+     << " | " << Cell(agg, "width_err_mean_m", 100, 2, false) << " / "
+     << Worst(agg, "width_err_max_m", 100, 2) << " | "
+     << Cell(agg, "height_err_mean_m", 100, 2, false) << " / "
+     << Worst(agg, "height_err_max_m", 100, 2) << " | " << objects << " | "
+     << Cell(agg, "frontend_ms_median", 1, 2, false) << " / "
+     << Cell(agg, "frontend_ms_p90", 1, 2, false) << " | "
+     << Cell(agg, "backend_ms_median", 1, 2, false) << " | "
+     << Cell(agg, "realtime_factor", 1, 1, false)
+     << (agg["mean"].contains("realtime_factor") ? "x" : "") << " |\n";
+  return md.str();
+}
+
+}  // namespace
+
 std::string SceneTable(const BenchJson& scene) {
   std::ostringstream md;
   md << kTableHeader;
@@ -286,18 +320,14 @@ std::string SceneTable(const BenchJson& scene) {
         objects +=
             ", classes right " + Num(agg["min"]["objects_classes_right"].get<double>(), 1, 0);
     }
-    md << Cell(agg, "ate_se3_m", 100, 2) << " | " << Cell(agg, "ate_causal_se3_m", 100, 2) << " | "
-       << Cell(agg, "scale_err", 100, 2) << " | " << Cell(agg, "rpe_trans_m", 100, 3, false)
-       << " / " << Cell(agg, "rpe_rot_deg", 1, 3, false) << " | "
-       << Cell(agg, "corner_err_mean_m", 100, 2) << " | "
-       << Cell(agg, "width_err_mean_m", 100, 2, false) << " / "
-       << Worst(agg, "width_err_max_m", 100, 2) << " | "
-       << Cell(agg, "height_err_mean_m", 100, 2, false) << " / "
-       << Worst(agg, "height_err_max_m", 100, 2) << " | " << objects << " | "
-       << Cell(agg, "frontend_ms_median", 1, 2, false) << " / "
-       << Cell(agg, "frontend_ms_p90", 1, 2, false) << " | "
-       << Cell(agg, "backend_ms_median", 1, 2, false) << " | "
-       << Cell(agg, "realtime_factor", 1, 1, false) << "x |\n";
+    md << Columns(agg, objects);
+  }
+  // A published result beside ours: its metrics in the same columns.
+  if (scene.contains("reference")) {
+    const BenchJson& ref = scene["reference"];
+    const BenchJson m = ref["metrics"];
+    md << "| " << ref["label"].get<std::string>() << " | published | "
+       << Columns({{"mean", m}, {"min", m}, {"max", m}}, "-");
   }
   return md.str();
 }
@@ -331,6 +361,44 @@ std::string GateTable(const std::vector<GateResult>& results) {
                      : (c.enforced ? "FAIL" : "outside"))
        << " |\n";
   }
+  return md.str();
+}
+
+std::string ScaleSigmaTable(const BenchJson& metrics) {
+  std::ostringstream md;
+  int runs = 0, within = 0, without_sigma = 0;
+  std::ostringstream rows;
+  for (const auto& [scene, sc] : metrics["scenes"].items()) {
+    for (const auto& [config, c] : sc["configs"].items()) {
+      for (const auto& [seed, r] : c["runs"].items()) {
+        if (r.contains("error") || !r.contains("scale_err")) continue;
+        if (!r.contains("scale_err_sigmas")) {
+          ++without_sigma;
+          continue;
+        }
+        const double k = r["scale_err_sigmas"].get<double>();
+        ++runs;
+        within += k <= 3.0;
+        rows << "| " << scene << " | " << config << " | " << seed << " | "
+             << Num(r["scale_err"].get<double>(), 100, 2) << " | "
+             << Num(r["scale_sigma"].get<double>(), 100, 2) << " | " << Num(k, 1, 1) << " | "
+             << (r.contains("variance_factor") ? Num(r["variance_factor"].get<double>(), 1, 2)
+                                               : "-")
+             << " | " << (k <= 3.0 ? "yes" : "**no**") << " |\n";
+      }
+    }
+  }
+  if (runs == 0) return "";
+  md << "## Scale error against its sigma\n\n"
+     << "Every run whose estimator reports a scale sigma (`run.json` `estimator.scale_sigma`: FSP "
+        "with mapped objects, scaled by the final solve's sigma0 when its variance factor is "
+        "above 1): the Sim3 scale error in units of that sigma. "
+     << within << " of " << runs << " runs within 3 sigma";
+  if (without_sigma > 0)
+    md << "; " << without_sigma << " runs report no sigma (FHP: no metric size, no scale sigma)";
+  md << ".\n\n| scene | config | seed | scale err [%] | scale sigma [%] | err / sigma | variance "
+        "factor | within 3 sigma |\n|---|---|---|---|---|---|---|---|\n"
+     << rows.str() << "\n";
   return md.str();
 }
 
@@ -392,6 +460,13 @@ std::string Report(const ReportInfo& args, const BenchJson& metrics, const Bench
     }
     if (header) md << "\n";
   }
+  if (metrics.contains("scenes_skipped") && !metrics["scenes_skipped"].empty()) {
+    md << "## Scenes not run\n\n";
+    for (const auto& [name, why] : metrics["scenes_skipped"].items())
+      md << "- " << name << ": " << why.get<std::string>() << "\n";
+    md << "\n";
+  }
+  md << ScaleSigmaTable(metrics);
   md << "## Plots\n\n" << plot_line << "\n\n";
   md << "Per scene (the first seed of each configuration): `*_top_view.png` the trajectory and the "
         "map from above against the ground truth (SE3-aligned); `*_rpe.png` the relative "

@@ -39,6 +39,9 @@ BenchJson Aggregate(const std::vector<const BenchJson*>& rows);
 // One scene's table (a line per configuration) and the gate's table, in markdown.
 std::string SceneTable(const BenchJson& scene);
 std::string GateTable(const std::vector<GateResult>& results);
+// Every run's Sim3 scale error against the estimator's scale σ (the "honest σ" check), or "" when
+// no run reports a σ.
+std::string ScaleSigmaTable(const BenchJson& metrics);
 
 // What report.md says: how the suite ran, a section per scene with its table and plots, the failed
 // runs, the plots' line and the gate.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <set>
 
@@ -123,7 +124,21 @@ void ReadPart(const std::string& path, const YAML::Node& part, BenchScene* scene
 
 bool ParseBenchConfig(const std::string& text, BenchConfig* config, std::string* why) {
   const size_t slash = text.find('/');
-  const std::string frontend = slash == std::string::npos ? "gt-corners" : text.substr(0, slash);
+  std::string frontend = slash == std::string::npos ? "gt-corners" : text.substr(0, slash);
+  // gt-corners-Spx: the ground-truth corners with S px of noise.
+  std::optional<double> pixel_sigma;
+  const std::string gt = "gt-corners-";
+  if (frontend.size() > gt.size() + 2 && frontend.compare(0, gt.size(), gt) == 0 &&
+      frontend.compare(frontend.size() - 2, 2, "px") == 0) {
+    const std::string number = frontend.substr(gt.size(), frontend.size() - gt.size() - 2);
+    char* end = nullptr;
+    const double v = std::strtod(number.c_str(), &end);
+    if (end == number.c_str() + number.size() && std::isfinite(v) && v >= 0.0 &&
+        number.find_first_not_of("0123456789.") == std::string::npos) {
+      pixel_sigma = v;
+      frontend = "gt-corners";
+    }
+  }
   const std::string rest = slash == std::string::npos ? text : text.substr(slash + 1);
   const size_t dash = rest.find('-');
   const std::string landmarks = dash == std::string::npos ? "" : rest.substr(0, dash);
@@ -133,16 +148,19 @@ bool ParseBenchConfig(const std::string& text, BenchConfig* config, std::string*
                   (mode == "window" || mode == "batch");
   if (!ok) {
     *why = "'" + text +
-           "' is not FRONTEND/LANDMARKS-MODE (front end gt-corners, rect or apriltag; landmarks "
-           "fsp or fhp; mode window or batch), e.g. rect/fsp-window or fsp-batch";
+           "' is not FRONTEND/LANDMARKS-MODE (front end gt-corners, gt-corners-Spx, rect or "
+           "apriltag; landmarks fsp or fhp; mode window or batch), e.g. rect/fsp-window, fsp-batch "
+           "or gt-corners-0px/fsp-batch";
     return false;
   }
   config->frontend = frontend;
+  config->pixel_sigma = pixel_sigma;
   config->landmarks =
       landmarks == "fsp" ? backend::LandmarkType::kFsp : backend::LandmarkType::kFhp;
   config->mode =
       mode == "window" ? backend::EstimatorMode::kWindow : backend::EstimatorMode::kBatch;
-  config->name = frontend + "/" + landmarks + "-" + mode;
+  config->name = (slash == std::string::npos ? frontend : text.substr(0, slash)) + "/" + landmarks +
+                 "-" + mode;
   return true;
 }
 
@@ -179,8 +197,30 @@ BenchSuite ReadBenchSuite(const std::string& path, bool quick) {
       } else if (key == "scene") {
         const std::filesystem::path p(kv.second.as<std::string>());
         scene.scene = (p.is_absolute() ? p : folder / p).lexically_normal().string();
+      } else if (key == "cslam_logs") {
+        scene.cslam_logs = kv.second.as<std::string>();
       } else if (key == "why") {
         scene.why = kv.second.as<std::string>();
+      } else if (key == "reference") {
+        if (!kv.second.IsMap())
+          throw InputError(path, LineOf(kv.second),
+                           "reference: expected {label: ..., METRIC: value}");
+        for (const auto& r : kv.second) {
+          const std::string metric = r.first.as<std::string>();
+          if (metric == "label") {
+            scene.reference_label = r.second.as<std::string>();
+            continue;
+          }
+          double v = 0.0;
+          try {
+            v = r.second.as<double>();
+          } catch (const YAML::Exception&) {
+            throw InputError(path, LineOf(r.first), "reference: " + metric + ": expected a number");
+          }
+          scene.reference.emplace_back(metric, v);
+        }
+        if (scene.reference_label.empty())
+          throw InputError(path, LineOf(kv.second), "reference: needs a label");
       } else if (key == "full" || key == "quick") {
         if (key == part_key) {
           part.reset(kv.second);
@@ -188,14 +228,16 @@ BenchSuite ReadBenchSuite(const std::string& path, bool quick) {
         }
       } else {
         throw InputError(path, LineOf(kv.first),
-                         "unknown key '" + key + "' (known: name, scene, why, full, quick)");
+                         "unknown key '" + key +
+                             "' (known: name, scene, cslam_logs, why, reference, full, quick)");
       }
     }
     if (!IsToken(scene.name))
       throw InputError(
           path, line, "a scene needs a name of letters, digits, '_', '-' and '.' (it names files)");
-    if (scene.scene.empty())
-      throw InputError(path, line, "scene " + scene.name + ": no scene file");
+    if (scene.scene.empty() == scene.cslam_logs.empty())
+      throw InputError(path, line,
+                       "scene " + scene.name + ": needs either a scene file or cslam_logs");
     if (!names.insert(scene.name).second)
       throw InputError(path, line, "scene name " + scene.name + " repeated");
     if (!has_part) continue;  // not part of this benchmark

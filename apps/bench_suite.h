@@ -12,15 +12,25 @@
 //         seeds: [1, 2]
 //         configs: [fsp-window, {config: rect/fsp-window, seeds: [1]}]
 //
+// Instead of `scene:`, `cslam_logs: FOLDER` names the C-SLAM authors' two logs (LandmarksGT.log,
+// PoseSE3(W)_GT.log) in the data folder (`fsp bench --data`): the bench converts them into a scene
+// (`fsp convert-cslam`) and leaves the scene out, saying why, when they are absent. `reference:`
+// puts a published result beside the scene's table: {label: "...", METRIC: value, ...} with the
+// metric names of the gate file.
+//
 // A configuration is FRONTEND/LANDMARKS-MODE (rect/fsp-window, apriltag/fhp-batch,
-// gt-corners/fsp-window); without "FRONTEND/" it is gt-corners (fsp-window). It runs on every seed
+// gt-corners/fsp-window); without "FRONTEND/" it is gt-corners (fsp-window). The front end
+// gt-corners-Spx (gt-corners-0px/fsp-batch) is gt-corners with S px of corner noise instead of
+// `fsp bench --pixel-sigma`'s. It runs on every seed
 // of the part, or on the seeds it lists (a subset). A sequence whose configurations all read no
 // pixels (gt-corners) is rendered without images, which is much faster. A seed is the render seed
 // of the sequence (`fsp render --seed`) and the gt-corners noise seed (`fsp run --seed`). A part
 // (full or quick) may be left out: the scene is then not part of that benchmark.
 #pragma once
 
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fsp/backend/estimator.h"
@@ -32,6 +42,7 @@ struct BenchConfig {
   std::string frontend;
   backend::LandmarkType landmarks = backend::LandmarkType::kFsp;
   backend::EstimatorMode mode = backend::EstimatorMode::kWindow;
+  std::optional<double> pixel_sigma;  // gt-corners-Spx: S; else the bench's --pixel-sigma
   std::vector<unsigned> seeds;  // the seeds it runs on (ReadBenchSuite: the scene's when not given)
   int line = 0;                 // in the suite file
 };
@@ -41,8 +52,11 @@ bool ParseBenchConfig(const std::string& text, BenchConfig* config, std::string*
 
 struct BenchScene {
   std::string name;
-  std::string scene;  // the scene file (resolved against the suite file's folder)
+  std::string scene;       // the scene file (resolved against the suite file's folder)
+  std::string cslam_logs;  // or the C-SLAM logs' folder, relative to the data folder
   std::string why;
+  std::string reference_label;  // a published result: its label and metrics (gate names)
+  std::vector<std::pair<std::string, double>> reference;
   double duration_s = 0.0;
   std::vector<unsigned> seeds;
   std::vector<BenchConfig> configs;

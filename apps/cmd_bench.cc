@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <map>
@@ -26,6 +27,7 @@
 #include "bench_suite.h"
 #include "commands.h"
 #include "fsp/common/error.h"
+#include "fsp/sim/cslam_flight.h"
 #include "fsp/sim/scene.h"
 #include "pipeline.h"
 #include "run_config.h"
@@ -51,6 +53,9 @@ struct BenchArgs {
   std::string thresholds = std::string(FSP_ASSETS_DIR) + "/bench/thresholds.yaml";
   std::string sequence;  // an already rendered sequence (skips rendering; the first scene only)
   std::string config;    // base configuration (default: built-in defaults)
+  // Real data the suite reads (the C-SLAM logs of `cslam_logs` scenes): --data, else
+  // $FSP_TEST_DATA.
+  std::string data;
   double pixel_sigma = 1.0;
   int jobs = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   std::string python = "/usr/bin/python3";
@@ -108,6 +113,40 @@ std::string MakePlots(const BenchArgs& args, const fs::path& out, std::vector<st
          RepoRelative(args.plot_script) + ", matplotlib).";
 }
 
+// The suite's scenes made from the C-SLAM authors' logs (BenchScene::cslam_logs): converted into
+// OUT/scenes/NAME/ (as `fsp convert-cslam`); a scene whose logs are absent is left out of SUITE.
+// Returns the scenes left out, {name: why}.
+Json PrepareLogScenes(const BenchArgs& args, const fs::path& out, BenchSuite* suite) {
+  Json skipped = Json::object();
+  std::vector<BenchScene> kept;
+  for (BenchScene& scene : suite->scenes) {
+    if (scene.cslam_logs.empty()) {
+      kept.push_back(scene);
+      continue;
+    }
+    const fs::path logs = fs::path(args.data) / scene.cslam_logs;
+    if (args.data.empty() || !fs::exists(logs / "LandmarksGT.log")) {
+      const std::string why =
+          args.data.empty()
+              ? "no data folder (--data or $FSP_TEST_DATA) with " + scene.cslam_logs + "/"
+              : (logs / "LandmarksGT.log").string() + " not found";
+      skipped[scene.name] = why +
+                            ": the C-SLAM authors' LandmarksGT.log and PoseSE3(W)_GT.log "
+                            "(github.com/AIRLab-POLIMI/C-SLAM, c_slam_roamfree/scripts/gt/)";
+      std::printf("bench: %s skipped: %s\n", scene.name.c_str(),
+                  skipped[scene.name].get<std::string>().c_str());
+      continue;
+    }
+    const sim::CslamFlight flight = sim::ReadCslamFlight(logs.string());
+    scene.scene = sim::WriteCslamScene(flight, (out / "scenes" / scene.name).string());
+    kept.push_back(scene);
+  }
+  if (kept.empty())
+    throw InputError(args.suite + ": no scene left to run (" + skipped.dump() + ")");
+  suite->scenes = kept;
+  return skipped;
+}
+
 void RunBench(const BenchArgs& args) {
   const auto t0 = std::chrono::steady_clock::now();
   // The gate and the suite first: a broken file should not cost a whole benchmark.
@@ -128,7 +167,19 @@ void RunBench(const BenchArgs& args) {
   if (ec) throw InputError(args.out + ": cannot create the output folder");
   const std::string config_path = (out / "config.yaml").string();
   WriteText(config_path, ToYaml(base));
+  // gt-corners-Spx configurations: the same configuration with their own corner noise.
+  const auto config_of = [&](const BenchConfig& c) {
+    if (!c.pixel_sigma) return config_path;
+    const std::string path = (out / ("config_" + Num(*c.pixel_sigma, 1, 2) + "px.yaml")).string();
+    if (!fs::exists(path)) {
+      RunConfig own = base;
+      own.gt_corners.pixel_sigma = *c.pixel_sigma;
+      WriteText(path, ToYaml(own));
+    }
+    return path;
+  };
   const std::string self = SelfExecutable();
+  const Json skipped = PrepareLogScenes(args, out, &suite);
 
   // The jobs: each scene and seed rendered, then each configuration run on it.
   std::vector<Job> jobs;
@@ -193,7 +244,7 @@ void RunBench(const BenchArgs& args) {
                     "--seed",
                     std::to_string(seed),
                     "--config",
-                    config_path};
+                    config_of(config)};
         run.log = (out / "logs" / (tag + "_" + FileSafe(config.name) + ".log")).string();
         run.after = render_job;
         run.cost = RunCost(config, scene.duration_s);
@@ -260,6 +311,11 @@ void RunBench(const BenchArgs& args) {
     s["duration_s"] = scene.duration_s;
     s["seeds"] = scene.seeds;
     s["why"] = scene.why;
+    if (!scene.reference.empty()) {
+      Json ref = Json::object();
+      for (const auto& [metric, value] : scene.reference) ref[metric] = value;
+      s["reference"] = {{"label", scene.reference_label}, {"metrics", ref}};
+    }
     Json configs = Json::object();
     for (const BenchConfig& config : scene.configs) {
       Json c;
@@ -314,6 +370,7 @@ void RunBench(const BenchArgs& args) {
   meta["wall_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   metrics["meta"] = meta;
   metrics["scenes"] = scenes;
+  metrics["scenes_skipped"] = skipped;
   metrics["gate"] = {{"thresholds", args.thresholds}, {"pass", pass}, {"checks", gate_json}};
   WriteJson(metrics, (out / "metrics.json").string());
 
@@ -373,6 +430,11 @@ void AddBenchCommand(CLI::App& root) {
   sub->add_option("--thresholds", args->thresholds, "accuracy gate file")
       ->default_str(args->thresholds);
   sub->add_option("--config", args->config, "base run configuration (YAML, as for fsp run)");
+  if (const char* env = std::getenv("FSP_TEST_DATA"); env && *env) args->data = env;
+  sub->add_option("--data", args->data,
+                  "folder of real data the suite reads (cslam_paper_flight/: the C-SLAM authors' "
+                  "logs for the paper's flight); default $FSP_TEST_DATA; scenes whose data is "
+                  "absent are skipped");
   sub->add_option("--pixel-sigma", args->pixel_sigma,
                   "corner noise of the gt-corners front end [px]")
       ->check(CLI::NonNegativeNumber);

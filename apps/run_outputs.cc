@@ -153,6 +153,9 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                     {"batch_solve_ms", s.batch_solve_ms},
                     {"backend_ms_by_tenth", BackendByTenth(s.backend_ms)},
                     {"scale_sigma", s.scale_sigma},
+                    {"variance_factor", s.variance_factor},
+                    {"imu_chi2_per_residual", s.imu_chi2_per_residual},
+                    {"corner_chi2_per_residual", s.corner_chi2_per_residual},
                     {"final_cost", s.final_cost}};
   if (s.point_frames > 0) {  // points given (PointOptions); absent otherwise, as before them
     j["estimator"]["points"] = {

@@ -99,6 +99,8 @@ bool EstimatorOptions::Check(std::string* why) const {
     os << "min_observations must be >= 1";
   else if (!(max_size_sigma_frac >= 0.0))
     os << "max_size_sigma_frac must be >= 0";
+  else if (!(warn_variance_factor > 0.0) || !(warn_scale_sigma > 0.0))
+    os << "warn_variance_factor and warn_scale_sigma must be > 0";
   else if (mature_views < 1)
     os << "mature_views must be >= 1";
   else if (max_past_views < 0 || batch_solve_every < 1)

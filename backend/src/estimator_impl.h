@@ -638,6 +638,9 @@ struct Estimator::Impl {
   std::map<const Object*, std::pair<double, double>> sigmas;  // (σ_w, σ_h)
 
   void ComputeSigmas(ceres::Problem* problem);
+  // The final solve's variance factor and χ² per factor type (EstimatorSummary::variance_factor);
+  // warns when the model does not fit (EstimatorOptions::warn_variance_factor).
+  void ComputeConsistency(ceres::Problem* problem);
 
   void FinishWindow() {
     if (keyframes.empty()) return;

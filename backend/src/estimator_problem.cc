@@ -17,6 +17,8 @@
 
 #include <ceres/ceres.h>
 
+#include "fsp/backend/fhp_factor.h"
+#include "fsp/backend/fsp_factor.h"
 #include "fsp/backend/imu_factor.h"
 #include "fsp/backend/manifolds.h"
 #include "fsp/backend/marginalization.h"
@@ -74,7 +76,12 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
   summary.scale_sigma = -1.0;
   MarginalCovariance covariance;
   if (!covariance.Compute(problem, wanted)) return;
-  for (Object* obj : in_problem) sigmas[obj] = obj->landmark.SizeSigmas(covariance);
+  // The covariance assumes the noise model; σ0 (ComputeConsistency) scales it to the residuals.
+  const double sigma0 = std::sqrt(std::max(1.0, summary.variance_factor));
+  for (Object* obj : in_problem) {
+    const std::pair<double, double> wh = obj->landmark.SizeSigmas(covariance);
+    sigmas[obj] = {wh.first * sigma0, wh.second * sigma0};
+  }
   if (mapped.empty()) return;
   // σ of the mean log scale: Cov(s_i, s_j) summed over every pair.
   double var = 0.0;
@@ -83,7 +90,72 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
       var += (i == j ? 1.0 : 2.0) *
              mapped[i]->landmark.ScaleCovariance(covariance, mapped[j]->landmark);
   const double n = static_cast<double>(mapped.size());
-  summary.scale_sigma = std::sqrt(std::max(0.0, var)) / n;
+  summary.scale_sigma = std::sqrt(std::max(0.0, var)) / n * sigma0;
+  if (summary.scale_sigma > options.warn_scale_sigma) {
+    char what[200];
+    std::snprintf(what, sizeof(what),
+                  "the map's metric scale is weakly observable: scale sigma %.1f %% (sizes and "
+                  "distances are known to about that; more acceleration or objects seen from "
+                  "more sides determine it)",
+                  100.0 * summary.scale_sigma);
+    Warn(keyframes.back()->state.t_ns, what);
+  }
+}
+
+void Estimator::Impl::ComputeConsistency(ceres::Problem* problem) {
+  summary.variance_factor = summary.imu_chi2_per_residual = summary.corner_chi2_per_residual = -1.0;
+  // Free parameters: the tangent dimensions of the blocks the solve moved.
+  std::vector<double*> params;
+  problem->GetParameterBlocks(&params);
+  double free = 0.0;
+  for (double* p : params)
+    if (!problem->IsParameterBlockConstant(p)) free += problem->ParameterBlockTangentSize(p);
+  // Residuals: whitened, without the loss. A residual that is exactly zero is not a measurement (a
+  // corner out of view in a partial view, a gauge prior at its value) and is not counted.
+  std::vector<ceres::ResidualBlockId> blocks;
+  problem->GetResidualBlocks(&blocks);
+  double chi2 = 0.0, count = 0.0, imu_chi2 = 0.0, imu_count = 0.0, corner_chi2 = 0.0,
+         corner_count = 0.0;
+  std::vector<double> r;
+  for (ceres::ResidualBlockId id : blocks) {
+    const ceres::CostFunction* f = problem->GetCostFunctionForResidualBlock(id);
+    r.assign(static_cast<size_t>(f->num_residuals()), 0.0);
+    double cost = 0.0;
+    if (!problem->EvaluateResidualBlock(id, /*apply_loss_function=*/false, &cost, r.data(),
+                                        nullptr))
+      continue;
+    double c2 = 0.0, m = 0.0;
+    for (double x : r) {
+      if (x == 0.0 || !std::isfinite(x)) continue;
+      c2 += x * x;
+      m += 1.0;
+    }
+    chi2 += c2;
+    count += m;
+    if (dynamic_cast<const ImuFactor*>(f)) {
+      imu_chi2 += c2;
+      imu_count += m;
+    } else if (dynamic_cast<const FspFactor*>(f) || dynamic_cast<const FspAnchorFactor*>(f) ||
+               dynamic_cast<const FhpFactor*>(f) || dynamic_cast<const FhpAnchorFactor*>(f)) {
+      corner_chi2 += c2;
+      corner_count += m;
+    }
+  }
+  if (count > free) summary.variance_factor = chi2 / (count - free);
+  if (imu_count > 0.0) summary.imu_chi2_per_residual = imu_chi2 / imu_count;
+  if (corner_count > 0.0) summary.corner_chi2_per_residual = corner_chi2 / corner_count;
+  if (summary.variance_factor > options.warn_variance_factor) {
+    char what[320];
+    std::snprintf(what, sizeof(what),
+                  "the final solve's residuals are %.1f times their noise model (variance factor "
+                  "%.1f; chi2 per residual: IMU %.1f, corners %.1f): the IMU noise or the corner "
+                  "sigma is too small for this data, or camera and IMU disagree (calibration, time "
+                  "offset); the sigmas reported are scaled by %.1f",
+                  std::sqrt(summary.variance_factor), summary.variance_factor,
+                  summary.imu_chi2_per_residual, summary.corner_chi2_per_residual,
+                  std::sqrt(summary.variance_factor));
+    Warn(keyframes.back()->state.t_ns, what);
+  }
 }
 
 void Estimator::Impl::AddObservation(ceres::Problem* problem, Keyframe* kf, Object* obj,
@@ -285,7 +357,10 @@ bool Estimator::Impl::SolveFull(int max_iterations, bool with_sigmas, const char
   }
   summary.final_cost = s->final_cost;
   for (auto& kf : keyframes) output[kf->frame] = kf->state.ToStateSample();
-  if (with_sigmas) ComputeSigmas(&problem);
+  if (with_sigmas) {
+    ComputeConsistency(&problem);
+    ComputeSigmas(&problem);
+  }
   return true;
 }
 

@@ -110,7 +110,7 @@ bool ParseTexture(const std::string& name, TextureKind* kind) {
       {"ceiling", TextureKind::kCeiling}, {"wood", TextureKind::kWood},
       {"glass", TextureKind::kGlass},     {"poster", TextureKind::kPoster},
       {"cabinet", TextureKind::kCabinet}, {"tag", TextureKind::kTag},
-      {"plain", TextureKind::kPlain}};
+      {"plain", TextureKind::kPlain},     {"paint", TextureKind::kPaint}};
   for (const auto& [n, k] : kNames) {
     if (name == n) {
       *kind = k;
@@ -382,12 +382,17 @@ Scene ParseScene(const std::string& yaml_text, const std::string& name,
 
   // room
   if (const YAML::Node room = root["room"]) {
-    r.CheckMap(room, "room", {"min", "max"});
+    r.CheckMap(room, "room", {"min", "max", "wall_texture"});
     Room rm;
     rm.min_W = r.Vector3(r.Require(room, "min", "room"), "room.min");
     rm.max_W = r.Vector3(r.Require(room, "max", "room"), "room.max");
     if (!((rm.max_W - rm.min_W).array() > 0.0).all())
       r.Fail(room, "room: max must exceed min on every axis");
+    if (const YAML::Node t = room["wall_texture"]) {
+      const std::string texture = t.IsScalar() ? t.as<std::string>() : "";
+      if (!ParseTexture(texture, &rm.walls))
+        r.Fail(t, "room.wall_texture: '" + texture + "' is not a texture (wall, paint, ...)");
+    }
     scene.room = rm;
   }
 
@@ -514,10 +519,10 @@ std::vector<TexturedQuad> SceneQuads(const Scene& scene) {
     // Normals u x v point into the room; walls have v = +z.
     add(lo, X, Y, TextureKind::kFloor, 1);                              // floor, normal +z
     add(Vec3(lo.x(), lo.y(), hi.z()), Y, X, TextureKind::kCeiling, 2);  // ceiling, normal -z
-    add(Vec3(hi.x(), lo.y(), lo.z()), -X, Z, TextureKind::kWall, 3);    // y = min wall, normal +y
-    add(Vec3(lo.x(), hi.y(), lo.z()), X, Z, TextureKind::kWall, 4);     // y = max wall, normal -y
-    add(lo, Y, Z, TextureKind::kWall, 5);                               // x = min wall, normal +x
-    add(Vec3(hi.x(), hi.y(), lo.z()), -Y, Z, TextureKind::kWall, 6);    // x = max wall, normal -x
+    add(Vec3(hi.x(), lo.y(), lo.z()), -X, Z, scene.room->walls, 3);     // y = min wall, normal +y
+    add(Vec3(lo.x(), hi.y(), lo.z()), X, Z, scene.room->walls, 4);      // y = max wall, normal -y
+    add(lo, Y, Z, scene.room->walls, 5);                                // x = min wall, normal +x
+    add(Vec3(hi.x(), hi.y(), lo.z()), -Y, Z, scene.room->walls, 6);     // x = max wall, normal -x
   }
   for (const SceneObject& obj : scene.objects) {
     TexturedQuad q;

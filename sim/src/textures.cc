@@ -100,14 +100,14 @@ bool InBox(double x, double y, double x0, double y0, double x1, double y1) {
 }
 
 // Wall: plaster (fractal noise) or wallpaper (faint vertical stripes and a small motif), chosen by
-// seed.
-void PaintWall(cv::Mat* tex, double w, double h, uint32_t seed) {
+// seed; CONTRAST scales the plaster (paint: 0.2, never wallpaper).
+void PaintWall(cv::Mat* tex, double w, double h, uint32_t seed, double contrast = 1.0) {
   const double base = 0.56 + 0.10 * Rand01(1, 0, seed);
-  const bool wallpaper = Hash(2, 0, seed) % 3 == 0;
+  const bool wallpaper = contrast == 1.0 && Hash(2, 0, seed) % 3 == 0;
   const double period = 0.10 + 0.06 * Rand01(3, 0, seed);
   Fill(tex, w, h, 1, [&](double x, double y) {
-    double v = base + 0.08 * (Fbm(x / 0.05, y / 0.05, seed, 3) - 0.5) +
-               0.05 * (ValueNoise(x / 0.7, y / 0.7, seed + 7u) - 0.5);
+    double v = base + contrast * (0.08 * (Fbm(x / 0.05, y / 0.05, seed, 3) - 0.5) +
+                                  0.05 * (ValueNoise(x / 0.7, y / 0.7, seed + 7u) - 0.5));
     if (wallpaper) {
       const double s = std::sin(2.0 * kPi * x / period);
       v += 0.025 * s;
@@ -409,6 +409,9 @@ cv::Mat MakeTextureFloat(const TexturedQuad& quad, int width_px, int height_px) 
       break;
     case TextureKind::kPlain:
       PaintPlain(&tex, w, h);
+      break;
+    case TextureKind::kPaint:
+      PaintWall(&tex, w, h, seed, 0.2);
       break;
   }
   cv::min(cv::max(tex, 0.0), 1.0, tex);

@@ -53,7 +53,8 @@ TEST(BenchSuite, RepositorySuite) {
     EXPECT_EQ(suite.scenes[0].name, "default_room");  // the gate's default scene
     bool hall = false;
     for (const BenchScene& s : suite.scenes) {
-      EXPECT_TRUE(fs::exists(s.scene)) << s.scene;
+      // A scene is a scene file, or the C-SLAM logs in the data folder (converted by the bench).
+      EXPECT_TRUE(s.cslam_logs.empty() ? fs::exists(s.scene) : s.scene.empty()) << s.name;
       EXPECT_FALSE(s.seeds.empty());
       EXPECT_FALSE(s.why.empty()) << s.name;
       if (s.name != "hall_flight") continue;
@@ -74,6 +75,18 @@ TEST(BenchSuite, ConfigNames) {
   EXPECT_EQ(c.frontend, "rect");
   EXPECT_EQ(c.landmarks, backend::LandmarkType::kFhp);
   EXPECT_EQ(c.mode, backend::EstimatorMode::kBatch);
+  EXPECT_FALSE(c.pixel_sigma);
+  // gt-corners with its own noise: the name keeps it, the front end is gt-corners.
+  ASSERT_TRUE(ParseBenchConfig("gt-corners-0px/fsp-batch", &c, &why)) << why;
+  EXPECT_EQ(c.name, "gt-corners-0px/fsp-batch");
+  EXPECT_EQ(c.frontend, "gt-corners");
+  ASSERT_TRUE(c.pixel_sigma);
+  EXPECT_EQ(*c.pixel_sigma, 0.0);
+  ASSERT_TRUE(ParseBenchConfig("gt-corners-2.5px/fhp-window", &c, &why)) << why;
+  EXPECT_EQ(*c.pixel_sigma, 2.5);
+  for (const char* bad : {"gt-corners-px/fsp-window", "gt-corners--1px/fsp-window",
+                          "gt-corners-1e3px/fsp-window", "gt-corners-1/fsp-window"})
+    EXPECT_FALSE(ParseBenchConfig(bad, &c, &why)) << bad;
   EXPECT_FALSE(ParseBenchConfig("corners/fsp-window", &c, &why));
   EXPECT_FALSE(ParseBenchConfig("fsp", &c, &why));
   EXPECT_NE(why.find("'fsp' is not FRONTEND/LANDMARKS-MODE"), std::string::npos) << why;
@@ -116,6 +129,26 @@ TEST(BenchSuite, BadFilesNameTheLine) {
   EXPECT_EQ(s.scenes[0].configs[0].seeds, (std::vector<unsigned>{3, 1}));
   EXPECT_EQ(s.scenes[0].configs[1].name, "rect/fsp-batch");
   EXPECT_EQ(s.scenes[0].configs[1].seeds, (std::vector<unsigned>{1}));
+
+  // The C-SLAM logs instead of a scene file, and a published reference.
+  const std::string logs =
+      "scenes:\n  - name: p\n    cslam_logs: cslam_paper_flight\n"
+      "    quick: {duration_s: 4, seeds: [1], configs: [gt-corners-0px/fsp-batch]}\n";
+  test::WriteText(dir / "s.yaml",
+                  logs + "    reference: {label: the paper, rpe_trans_m: 0.0155}\n");
+  const BenchSuite p = ReadBenchSuite((dir / "s.yaml").string(), true);
+  EXPECT_EQ(p.scenes[0].cslam_logs, "cslam_paper_flight");
+  EXPECT_TRUE(p.scenes[0].scene.empty());
+  EXPECT_EQ(p.scenes[0].reference_label, "the paper");
+  ASSERT_EQ(p.scenes[0].reference.size(), 1u);
+  EXPECT_EQ(p.scenes[0].reference[0].first, "rpe_trans_m");
+  EXPECT_EQ(p.scenes[0].reference[0].second, 0.0155);
+  e = error(logs + "    reference: {rpe_trans_m: 0.0155}\n");
+  EXPECT_NE(e.find("reference: needs a label"), std::string::npos) << e;
+  e = error(logs + "    reference: {label: x, rpe_trans_m: fast}\n");
+  EXPECT_NE(e.find("s.yaml:5: reference: rpe_trans_m: expected a number"), std::string::npos) << e;
+  e = error(logs + "    scene: a.yaml\n");
+  EXPECT_NE(e.find("needs either a scene file or cslam_logs"), std::string::npos) << e;
 }
 
 TEST(BenchJobs, ParallelWithDependencies) {
@@ -161,18 +194,20 @@ TEST(BenchJobs, ParallelWithDependencies) {
 // that fails and a python without matplotlib.
 TEST(Bench, TinySuiteEndToEnd) {
   const fs::path dir = test::ScratchDir();
-  test::WriteText(
-      dir / "suite.yaml",
-      "scenes:\n  - name: tiny\n    scene: " + std::string(FSP_SOURCE_DIR) +
-          "/assets/scenes/default_room.yaml\n    why: a test\n"
-          "    quick: {duration_s: 4, seeds: [1], configs: [fsp-window, fhp-window]}\n");
+  test::WriteText(dir / "suite.yaml",
+                  "scenes:\n  - name: tiny\n    scene: " + std::string(FSP_SOURCE_DIR) +
+                      "/assets/scenes/default_room.yaml\n    why: a test\n"
+                      "    quick: {duration_s: 4, seeds: [1], configs: [fsp-window, fhp-window]}\n"
+                      "  - name: paper\n    cslam_logs: cslam_paper_flight\n    why: a test\n"
+                      "    quick: {duration_s: 4, seeds: [1], configs: [fsp-window]}\n");
   test::WriteText(dir / "pass.yaml",
                   "checks:\n  - {scene: tiny, config: fsp-window, metric: ate_se3_m, max: 1.0}\n"
                   "  - {config: fsp-batch, metric: ate_se3_m, max: 0.01}\n");  // not run: skipped
   const fs::path out = dir / "out";
   const test::CommandResult r =
       test::RunFsp("bench --quick --suite " + (dir / "suite.yaml").string() + " --thresholds " +
-                   (dir / "pass.yaml").string() + " --out " + out.string() + " --jobs 2");
+                   (dir / "pass.yaml").string() + " --out " + out.string() + " --jobs 2" +
+                   " --data " + (dir / "no_data").string());
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
 
   const Json m = ReadJson(out / "metrics.json");
@@ -187,6 +222,15 @@ TEST(Bench, TinySuiteEndToEnd) {
         "realtime_factor", "corner_err_mean_m", "width_err_max_m"})
     EXPECT_TRUE(run.contains(key)) << key;
   EXPECT_EQ(fsp["aggregate"]["mean"]["ate_se3_m"], run["ate_se3_m"]);  // one seed
+  // FSP reports its scale σ, the error in σ units and the variance factor; FHP has no σ.
+  for (const char* key : {"scale_sigma", "scale_err_sigmas", "variance_factor"})
+    EXPECT_TRUE(run.contains(key)) << key;
+  EXPECT_FALSE(
+      m["scenes"]["tiny"]["configs"]["gt-corners/fhp-window"]["runs"]["1"].contains("scale_sigma"));
+  // The scene whose C-SLAM logs are not in the data folder: left out, saying why.
+  ASSERT_TRUE(m["scenes_skipped"].contains("paper")) << m["scenes_skipped"].dump();
+  EXPECT_NE(m["scenes_skipped"]["paper"].get<std::string>().find("LandmarksGT.log not found"),
+            std::string::npos);
   EXPECT_TRUE(m["gate"]["pass"].get<bool>());
   EXPECT_TRUE(m["gate"]["checks"][1]["skipped"].get<bool>());
   // The series the plots read: per step and per corner.
@@ -202,6 +246,9 @@ TEST(Bench, TinySuiteEndToEnd) {
   EXPECT_NE(report.find("| gt-corners/fsp-window | 1/1 | "), std::string::npos) << report;
   EXPECT_NE(report.find("| gt-corners/fhp-window | 1/1 | "), std::string::npos) << report;
   EXPECT_NE(report.find("**pass**"), std::string::npos) << report;
+  EXPECT_NE(report.find("## Scale error against its sigma"), std::string::npos) << report;
+  EXPECT_NE(report.find("| tiny | gt-corners/fsp-window | 1 | "), std::string::npos) << report;
+  EXPECT_NE(report.find("## Scenes not run\n\n- paper: "), std::string::npos) << report;
   if (HaveMatplotlib()) {
     for (const char* png :
          {"tiny_top_view", "tiny_rpe", "tiny_corners", "tiny_sizes", "tiny_timing"}) {

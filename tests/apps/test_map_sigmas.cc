@@ -73,6 +73,11 @@ void AddRun(uint32_t seed, const std::string& args, const fs::path& dir, Nees* n
               seed, args.c_str(), run.n, run.Mean(), m.trajectory->scale_error, scale_sigma);
   EXPECT_GT(scale_sigma, 0.0);
   scale->Add(m.trajectory->scale_error / scale_sigma);
+  // The final solve's variance factor: the noise model (1 px corners, the IMU's densities) fits.
+  const double vf = report["estimator"]["variance_factor"].get<double>();
+  std::printf("[seed %u %s] variance factor %.3f\n", seed, args.c_str(), vf);
+  EXPECT_GT(vf, 0.5);
+  EXPECT_LT(vf, 2.0);
   nees->sum += run.sum;
   nees->n += run.n;
 }
@@ -108,6 +113,37 @@ TEST(MapSigmas, BatchSigmasAreHonest) {
 
 TEST(MapSigmas, WindowSigmasAreHonest) {
   ExpectHonestSigmas("--mode window", 4);
+}
+
+// A noise model four times too optimistic (corners σ 0.25 px in the estimator, 1 px in the data):
+// the variance factor sees it (about 16), the run says so, and the scale σ, scaled by σ0, still
+// covers the scale error.
+TEST(MapSigmas, AnOptimisticNoiseModelIsReported) {
+  const fs::path dir = test::ScratchDir();
+  sim::Scene scene = test::RoomLoopScene();
+  scene.seed = 1;
+  test::WriteSequenceForGtCorners(scene, dir / "seq");
+  std::ofstream(dir / "config.yaml") << "estimator:\n  factor:\n    sigma_px: 0.25\n";
+  const test::CommandResult c = test::RunFsp(
+      "run " + (dir / "seq").string() + " --frontend gt-corners --seed 1 --mode window --config " +
+      (dir / "config.yaml").string() + " --out " + (dir / "run").string());
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  nlohmann::json report;
+  std::ifstream(dir / "run" / "run.json") >> report;
+  const nlohmann::json& est = report["estimator"];
+  const double vf = est["variance_factor"].get<double>();
+  EXPECT_GT(vf, 8.0);
+  EXPECT_LT(vf, 32.0);
+  bool warned = false;
+  for (const auto& w : report["faults"]["warnings"])
+    warned |= w.get<std::string>().find("times their noise model") != std::string::npos;
+  EXPECT_TRUE(warned) << report["faults"]["warnings"].dump();
+  eval::EvalOptions sim3;
+  sim3.trajectory.align = eval::AlignMode::kSim3;
+  const eval::Metrics m =
+      eval::Evaluate(eval::ResolvePaths((dir / "seq").string(), (dir / "run").string()), sim3);
+  ASSERT_TRUE(m.trajectory.has_value());
+  EXPECT_LT(m.trajectory->scale_error, 3.0 * est["scale_sigma"].get<double>());
 }
 
 }  // namespace

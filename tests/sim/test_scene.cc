@@ -4,8 +4,10 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include "fsp/common/error.h"
+#include "fsp/sim/renderer.h"
 #include "fsp/sim/scene.h"
 #include "test_util.h"
 
@@ -90,6 +92,34 @@ TEST(Scene, RoomQuadsFaceInwardAndObjectsKeepTheirCorners) {
             1e-12);
   EXPECT_EQ(door.offset_m, 0.0);
   EXPECT_EQ(quads[8].tag_id, 5);
+}
+
+// Painted walls (room.wall_texture: paint): the four walls take it, floor and ceiling keep theirs;
+// the paint is the plaster at a fifth of its contrast. A texture that does not exist is an error.
+TEST(Scene, PaintedWalls) {
+  const Scene scene =
+      ParseScene(Replace(kScene, "max: [4, 3, 2.5]}", "max: [4, 3, 2.5], wall_texture: paint}"),
+                 "scene.yaml", ".");
+  const std::vector<TexturedQuad> quads = SceneQuads(scene);
+  EXPECT_EQ(quads[0].texture, TextureKind::kFloor);
+  EXPECT_EQ(quads[1].texture, TextureKind::kCeiling);
+  for (int i = 2; i < 6; ++i) EXPECT_EQ(quads[i].texture, TextureKind::kPaint) << i;
+  TexturedQuad wall = quads[2];
+  const auto spread = [](const cv::Mat& tex) {
+    cv::Scalar mean, sd;
+    cv::meanStdDev(tex, mean, sd);
+    return sd[0];
+  };
+  const double paint = spread(MakeTexture(wall, 400, 250));
+  wall.texture = TextureKind::kWall;
+  const double plaster = spread(MakeTexture(wall, 400, 250));
+  EXPECT_GT(paint, 0.0);
+  EXPECT_LT(paint, 0.3 * plaster) << paint << " " << plaster;
+  const std::string err =
+      ErrorOf(Replace(kScene, "max: [4, 3, 2.5]}", "max: [4, 3, 2.5], wall_texture: chalk}"));
+  EXPECT_NE(err.find("scene.yaml:4: room.wall_texture: 'chalk' is not a texture"),
+            std::string::npos)
+      << err;
 }
 
 TEST(Scene, UnknownKeySaysWhichAndWhere) {

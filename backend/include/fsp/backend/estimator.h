@@ -328,6 +328,14 @@ struct EstimatorOptions {
   // poster seen in the clip's last 1.5 s was 0.57 +- 0.55 m wide with its corners 50 cm off; EuRoC
   // V1_01's still start keeps its board at 1.15 +- 0.68 m. 0: all.
   double max_size_sigma_frac = 0.8;
+  // The final solve's consistency (EstimatorSummary::variance_factor): a run whose residuals exceed
+  // their noise model by more than this factor in χ² (σ0² above it: the IMU noise or the corner σ
+  // is too small for the data, or the data disagree) says so in a warning; its σs are scaled by σ0
+  // whatever this is. 4: σ0 = 2, a model twice too optimistic (rendered runs are at 0.9-1.2).
+  double warn_variance_factor = 4.0;
+  // A run whose map scale σ (after the σ0 scaling) exceeds this fraction says that its metric scale
+  // is weakly observable (little acceleration, objects seen from one side, ...).
+  double warn_scale_sigma = 0.02;
   FaultOptions faults;
   GlobalOptions global;
   ZeroVelocityOptions zero_velocity;
@@ -391,6 +399,16 @@ struct EstimatorSummary {
   // size errors from above (their independent parts average out as 1/n). −1: unknown (FHP, no
   // objects, or the covariance failed).
   double scale_sigma = -1.0;
+  // The final solve's a-posteriori variance factor σ0² (after Finish): the χ² of its residuals
+  // (whitened, without the robust loss) over their redundancy (residuals minus free parameters).
+  // About 1 when the noise model (IMU noise densities, corner σ) fits the data; when it is above 1
+  // every σ above (scale_sigma, the map's width/height σ) is multiplied by σ0, so that they stay
+  // honest about a model that is too optimistic. Per factor type, χ² per residual of the IMU
+  // factors and of the corners (a type's own share, not corrected for the parameters). −1: not
+  // computed (no final solve).
+  double variance_factor = -1.0;
+  double imu_chi2_per_residual = -1.0;
+  double corner_chi2_per_residual = -1.0;
   // Faults (FaultOptions): holes in the IMU stream bridged by the motion prior, frame gaps,
   // stretches without any object in view, rejected solves (divergences) and session restarts.
   int imu_gaps = 0;

@@ -29,7 +29,8 @@ enum class TextureKind {
   kPoster,   // posters/paintings: shapes and text on a light background
   kCabinet,  // cabinet front: panels and handle
   kTag,      // AprilTag tag36h11 code (tag_id); see TexturedQuad for the geometry
-  kPlain     // uniform bright face with a dark border (tests: high contrast)
+  kPlain,    // uniform bright face with a dark border (tests: high contrast)
+  kPaint     // painted wall: the plaster of kWall at a fifth of its contrast (few point features)
 };
 
 // A planar rectangle: points origin_W + a * axis_u_W + b * axis_v_W for a, b in [0, 1].

@@ -7,6 +7,7 @@
 //   default 0 objects[i]: tag_id (required for texture tag), texture
 //   (wall|floor|ceiling|wood|glass|poster|cabinet|
 //               tag|plain; default from the class), seed (texture variation, default the id)
+//   room:       wall_texture (wall, default; paint: a painted wall with few point features)
 //   trajectory: smoothing_s, knot_s   (pose-file form: TrajectoryOptions::pose_smoothing_s,
 //   pose_knot_s) render:     {supersampling, motion_blur_samples, exposure_s, ambient}
 //   (RenderOptions; exposure_s is
@@ -51,6 +52,8 @@ struct SceneObject {
 struct Room {
   Vec3 min_W = Vec3::Zero();  // [m] floor corner
   Vec3 max_W = Vec3::Zero();  // [m] ceiling corner
+  // The four walls' texture (room.wall_texture: wall, the default, or paint: low texture).
+  TextureKind walls = TextureKind::kWall;
 };
 
 struct Scene {
