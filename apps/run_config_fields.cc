@@ -22,6 +22,8 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.max_past_views", &e.max_past_views, kNonNegative},
       {"estimator.min_observations", &e.min_observations, kAtLeastOne},
       {"estimator.max_size_sigma_frac", &e.max_size_sigma_frac, kNonNegative},
+      {"estimator.warn_variance_factor", &e.warn_variance_factor, kPositive},
+      {"estimator.warn_scale_sigma", &e.warn_scale_sigma, kPositive},
       {"estimator.mature_views", &e.mature_views, kAtLeastOne},
       {"estimator.min_depth_m", &e.min_depth_m, kPositive},
       {"estimator.max_depth_m", &e.max_depth_m, kPositive},
