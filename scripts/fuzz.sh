@@ -9,7 +9,8 @@
 # Environment: FUZZ_PARALLEL (targets run at once, default 1), FUZZ_TIMEOUT (seconds one input may
 # take before it counts as a hang, default 10), FUZZ_RSS_MB (memory limit, default 2048),
 # FUZZ_BUILD_JOBS (default 2), FSP_TEST_DATA (the shared real data, read for extra seeds when it
-# exists; default ../shared/data). Run it under `nice -n 19` on a shared machine.
+# exists; default ../shared/data), FSP_DMVIO_WALK (the DM-VIO walk, read for a fuzz_dso seed when it
+# exists; default /work/scratch/dmvio). Run it under `nice -n 19` on a shared machine.
 #
 # Corpora: build-fuzz/corpus/TARGET/ grows from run to run; it starts from the project's seeds
 # (fuzz/corpus/TARGET/, plus the scene and config files of assets/) and, read at run time, from small
@@ -36,6 +37,7 @@ TIMEOUT=${FUZZ_TIMEOUT:-10}
 RSS_MB=${FUZZ_RSS_MB:-2048}
 BUILD=build-fuzz
 DATA=${FSP_TEST_DATA:-$ROOT/../shared/data}
+DMVIO=${FSP_DMVIO_WALK:-/work/scratch/dmvio}
 
 # --- configure and build -------------------------------------------------------------------------
 if ! command -v clang++ >/dev/null; then
@@ -57,6 +59,7 @@ seed_shared() {
   local t=$1 dir=$BUILD/seeds/$1
   rm -rf "$dir"
   mkdir -p "$dir"
+  if [ "$t" = fuzz_dso ]; then seed_dmvio "$dir" || echo "warning: no seed from $DMVIO" >&2; fi
   [ -d "$DATA" ] || return 0
   local m=$DATA/euroc_v101_micro/mav0
   case $t in
@@ -95,6 +98,50 @@ seed_shared() {
   return 0
 }
 
+# fuzz_dso's seed from the DM-VIO walk, when it is present (not in the shared data: see its README):
+# the first 4 frames of cam0/times.txt, the IMU rows from 50 ms before to 50 ms after them,
+# camchain.yaml and the first other YAML beside it that holds an IMU noise (d515.yaml), and
+# camera.txt with its pixel intrinsics scaled to the 32x24 test images the target writes (else
+# every input would stop at the image size check).
+seed_dmvio() {
+  local out=$1/dmvio_walk.txt d=$DMVIO
+  [ -f "$d/cam0/times.txt" ] && [ -f "$d/cam0/camera.txt" ] && [ -f "$d/imu.txt" ] || return 0
+  local times w=0 h=0 lo=0 hi=0 noise=
+  times=$(awk '!/^#/ && n++ < 4' "$d/cam0/times.txt")
+  read -r w h < <(awk 'NR == 2' "$d/cam0/camera.txt") || true
+  read -r lo hi < <(echo "$times" | awk 'NR == 1 { lo = $2 } { hi = $2 }
+    END { printf "%.0f %.0f\n", (lo - 0.05) * 1e9, (hi + 0.05) * 1e9 }') || true
+  for f in "$d"/*.yaml "$d"/*.yml; do
+    if [ -f "$f" ] && [ "$f" != "$d/camchain.yaml" ] && grep -q noise_density "$f"; then
+      noise=$f
+      break
+    fi
+  done
+  {
+    echo "$times"
+    echo "--- next file ---"
+    # Line 1: [model] fx fy cx cy ...; pixels (not DSO's relative fractions) are scaled.
+    awk -v W="$w" -v H="$h" 'NR == 1 && W > 0 && H > 0 {
+        i = ($1 ~ /^[A-Za-z]/) ? 2 : 1
+        if (!($(i + 2) < 1 && $(i + 3) < 1)) {
+          $i *= 32 / W; $(i + 1) *= 24 / H
+          $(i + 2) = ($(i + 2) + 0.5) * 32 / W - 0.5; $(i + 3) = ($(i + 3) + 0.5) * 24 / H - 0.5
+        }
+      }
+      NR == 2 { $0 = "32 24" }
+      { print }' "$d/cam0/camera.txt"
+    echo "--- next file ---"
+    awk -F '[ ,\t]+' -v lo="$lo" -v hi="$hi" \
+      '/^#/ || ($1 + 0 >= lo + 0 && $1 + 0 <= hi + 0 && n++ < 100)' "$d/imu.txt"
+    echo "--- next file ---"
+    if [ -f "$d/camchain.yaml" ]; then head -c 4096 "$d/camchain.yaml"; fi
+    if [ -n "$noise" ]; then
+      echo "--- next file ---"
+      head -c 4096 "$noise"
+    fi
+  } >"$out"
+}
+
 # The project's own seeds besides fuzz/corpus: the scene and config files of assets/.
 seed_assets() {
   local t=$1 dir=$BUILD/seeds/$1
@@ -111,6 +158,7 @@ make_dict() {
   local t=$1 dict=$BUILD/dicts/$1.dict
   mkdir -p "$BUILD/dicts"
   cp fuzz/numbers.dict "$dict"
+  [ -f "fuzz/$t.dict" ] && cat "fuzz/$t.dict" >>"$dict"
   local seeds=("$BUILD/seeds/$t")
   [ -d "fuzz/corpus/$t" ] && seeds+=("fuzz/corpus/$t")
   find "${seeds[@]}" -type f -exec grep -ohE '[A-Za-z_][A-Za-z0-9_]*:' {} + 2>/dev/null |
