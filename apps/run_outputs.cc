@@ -157,6 +157,16 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                     {"imu_chi2_per_residual", s.imu_chi2_per_residual},
                     {"corner_chi2_per_residual", s.corner_chi2_per_residual},
                     {"final_cost", s.final_cost}};
+  if (s.point_frames > 0) {  // points given (PointOptions); absent otherwise, as before them
+    j["estimator"]["points"] = {
+        {"frames", s.point_frames},
+        {"used", s.points_used},
+        {"rejected", s.points_rejected},
+        {"dropped", s.points_dropped},
+        {"reanchored", s.points_reanchored},
+        {"mean_track_keyframes",
+         s.points_used > 0 ? static_cast<double>(s.point_track_keyframes) / s.points_used : 0.0}};
+  }
   double global_ms_total = 0.0, global_ms_max = 0.0;
   for (double ms : s.global_ms) {
     global_ms_total += ms;

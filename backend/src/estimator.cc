@@ -119,6 +119,8 @@ bool EstimatorOptions::Check(std::string* why) const {
     os << "global: " << sub;
   else if (!zero_velocity.Check(&sub))
     os << "zero_velocity: " << sub;
+  else if (!points.Check(&sub))
+    os << "points: " << sub;
   if (why) *why = os.str();
   return os.str().empty();
 }
@@ -207,6 +209,7 @@ void Estimator::Impl::Restart(const std::string& why) {
   if (options.mode == EstimatorMode::kBatch) return;
   window_begin = static_cast<size_t>(kf->index);
   prior.reset();
+  ClearPoints();
   for (auto& [id, obj] : objects) {
     std::unique_ptr<Object>& best = retired[id];
     if (!best || best->observations < obj->observations) best = std::move(obj);
@@ -275,7 +278,8 @@ void Estimator::Impl::DropNewest() {
 }
 
 void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs,
-                                  const KeyframeState* initial, const std::optional<Gauge>& gauge) {
+                                  const KeyframeState* initial, const std::optional<Gauge>& gauge,
+                                  std::vector<PointObservation> points) {
   const auto t_start = Clock::now();
   if (!keyframes.empty() && !keyframes.back()->keyframe) DropNewest();
   auto kf = std::make_unique<Keyframe>();
@@ -325,6 +329,7 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
   }
   kf->state.t_ns = t_ns;
   kf->observations = std::move(obs);
+  if (UsePoints()) kf->points = std::move(points);
   if (kf->preint && prev_kf && Still(*prev_kf, *kf)) {
     kf->still = true;
     if (kf->keyframe) {
@@ -355,7 +360,8 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
   if (options.mode == EstimatorMode::kWindow) {
     if (options.global.enabled) {
       if (keyframes.back()->keyframe) ++keyframes_since_global;
-      if (!job && (loop_pending || keyframes_since_global >= options.global.every_keyframes))
+      if (!job && GlobalHasObjects() &&
+          (loop_pending || keyframes_since_global >= options.global.every_keyframes))
         StartGlobal();
       if (job && summary.keyframes >= job->apply_at) ApplyGlobal();
       // Global solves that diverge again and again (the whole history cannot be made consistent
@@ -367,6 +373,8 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
         Restart(global_rejected_why);
       }
     }
+    if (keyframes.back()->keyframe && !keyframes.back()->points.empty())
+      AddPointViews(keyframes.back().get());
     SolveWindow(options.window_max_iterations);
     const auto in_window = [this] {
       return static_cast<int>(keyframes.size() - window_begin) -
@@ -403,13 +411,15 @@ void Estimator::AddImu(const ImuSample& sample) {
   impl_->imu.push_back(sample);
 }
 
-bool Estimator::AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& given) {
+bool Estimator::AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& given,
+                         const std::vector<PointObservation>& points) {
   Impl& d = *impl_;
   // An observation without a corner seen says nothing.
   std::vector<ObjectObservation> observations;
   std::copy_if(given.begin(), given.end(), std::back_inserter(observations),
                [](const ObjectObservation& o) { return CountSeen(o.seen) > 0; });
   ++d.summary.frames;
+  if (d.UsePoints() && !points.empty()) ++d.summary.point_frames;
   d.NoteFrame(t_ns, !observations.empty());
   if (!d.summary.initialized) {
     if (!d.summary.init_failure.empty()) return false;
@@ -418,9 +428,11 @@ bool Estimator::AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& giv
     std::copy_if(observations.begin(), observations.end(), std::back_inserter(whole),
                  [](const ObjectObservation& o) { return o.Complete(); });
     d.pending.emplace_back(t_ns, std::move(whole));
+    if (d.UsePoints() && !points.empty()) d.pending_points[t_ns] = points;
     return d.TryInitialize();
   }
-  d.AddKeyframe(t_ns, observations, nullptr);
+  d.AddKeyframe(t_ns, observations, nullptr, std::nullopt,
+                d.UsePoints() ? points : std::vector<PointObservation>{});
   return true;
 }
 

@@ -65,6 +65,11 @@ struct Keyframe {
   // previous keyframe, its gauge priors instead.
   std::optional<Gauge> gauge;
   std::vector<ObjectObservation> observations;
+  // The frame's point features (PointOptions; empty when disabled or none given).
+  std::vector<PointObservation> points;
+  // It saw no object, only live points: the global step (which holds no points) keeps its pose as
+  // the window left it (backend/README.md, "Points").
+  bool points_only = false;
   // Standing still since the previous keyframe (ZeroVelocityOptions): a zero-velocity prior.
   bool still = false;
 };
@@ -92,6 +97,24 @@ struct Object {
     double sigma_px;  // ObjectObservation::sigma_px
   };
   std::deque<PastView> past;
+};
+
+// A point feature seen by keyframes in the window (PointOptions, backend/README.md "Points"). Live:
+// a variable of the window (inverse depth `rho` along `bearing_F` in its anchor's camera).
+struct PointTrack {
+  struct View {
+    Keyframe* kf;
+    Vec2 uv;  // undistorted pixels
+  };
+  std::vector<View> views;  // window keyframes that saw it, oldest first
+  bool live = false;
+  bool used = false;       // entered the window once (summary.points_used)
+  bool dead = false;       // dropped (outlier, anchor left): never enters again
+  bool accounted = false;  // its track length is in summary.point_track_keyframes
+  int keyframes_seen = 0;  // keyframes that saw it
+  Keyframe* anchor = nullptr;
+  Vec3 bearing_F = Vec3::UnitZ();  // (x, y, 1), the anchor view's normalised bearing
+  double rho = 0.0;                // inverse depth along F's optical axis [1/m]
 };
 
 using Keyframes = std::deque<std::unique_ptr<Keyframe>>;
@@ -127,6 +150,7 @@ struct Estimator::Impl {
 
   std::vector<ImuSample> imu;  // all samples (pruned behind the oldest needed time)
   std::vector<std::pair<int64_t, std::vector<ObjectObservation>>> pending;  // frames before init
+  std::map<int64_t, std::vector<PointObservation>> pending_points;          // their points, by time
   std::deque<std::unique_ptr<Keyframe>>
       keyframes;  // every keyframe (window = the last window_size)
   std::map<int, std::unique_ptr<Object>> objects;
@@ -233,7 +257,51 @@ struct Estimator::Impl {
 
   // --- Keyframes ---------------------------------------------------------------------------------
   void AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> obs, const KeyframeState* initial,
-                   const std::optional<Gauge>& gauge = std::nullopt);
+                   const std::optional<Gauge>& gauge = std::nullopt,
+                   std::vector<PointObservation> points = {});
+
+  // --- Points (estimator_points.cc; PointOptions) ------------------------------------------------
+  std::map<int64_t, PointTrack> point_tracks;  // by point id
+  bool UsePoints() const {
+    return options.points.enabled && options.mode == EstimatorMode::kWindow;
+  }
+  // The views of keyframe `kf` join their tracks; tracks seen by it with parallax enough enter the
+  // window (triangulated, longest-tracked first, up to max_points live).
+  void AddPointViews(Keyframe* kf);
+  bool TriangulatePoint(PointTrack* t) const;
+  // Factors of every live point's views (not the anchor's) into a window problem, with ρ bounded
+  // to the depth range.
+  void AddPointFactors(ceres::Problem* problem);
+  // ...of the points keyframe `kf` (no keyframe, solved alone) sees: anchors and ρ held.
+  void AddPointFactorsOf(ceres::Problem* problem, Keyframe* kf);
+  // The factors of the points anchored at `old` for its marginalisation (owned by COSTS, LOSSES).
+  std::vector<ResidualBlockInput> AddPointFactorsOf(
+      Keyframe* old, std::vector<std::unique_ptr<ceres::CostFunction>>* costs,
+      std::vector<std::unique_ptr<ceres::LossFunction>>* losses);
+  // After a window solve: drops points with a view further than outlier_px from their prediction
+  // or with a depth on the range's bounds.
+  void RemovePointOutliers();
+  // Keyframe `old` leaves the window: its views leave their tracks; points anchored at it move into
+  // their next view's keyframe (or are dropped).
+  void ReanchorPointsOf(Keyframe* old);
+  void StopPoint(PointTrack* t) {
+    t->live = false;
+    t->dead = true;
+    if (t->used && !t->accounted) {
+      summary.point_track_keyframes += t->keyframes_seen;
+      t->accounted = true;
+    }
+  }
+  // The global step holds no points: without any object it would be the IMU alone, and its result
+  // would overwrite what the window's points gave the keyframes (measured: a flight through random
+  // points ended exactly as dead reckoning). Then the window's estimates stand.
+  bool GlobalHasObjects() const {
+    return summary.points_used == 0 || !objects.empty() || !retired.empty();
+  }
+  void ClearPoints() {
+    for (auto& [id, t] : point_tracks) StopPoint(&t);
+    point_tracks.clear();
+  }
 
   // Whether a frame is kept as a keyframe (both modes). Kept: every keyframe_interval_s
   // (batch: batch_keyframe_interval_s), and any
@@ -578,7 +646,8 @@ struct Estimator::Impl {
     if (keyframes.empty()) return;
     ApplyGlobal();
     SolveWindow(options.window_max_iterations * 3, /*finish=*/!options.global.enabled);
-    if (options.global.enabled) SolveGlobalFinal();
+    if (options.global.enabled && GlobalHasObjects()) SolveGlobalFinal();
+    ClearPoints();  // the live points' track lengths into the summary
   }
 };
 

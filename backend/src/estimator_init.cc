@@ -108,13 +108,17 @@ void Estimator::Impl::StartSession(
   gauge.sb0 = sb0;
   bool first_frame = true;
   for (auto& [t_ns, obs] : frames) {
+    std::vector<PointObservation> points;
+    if (auto it = pending_points.find(t_ns); it != pending_points.end())
+      points = std::move(it->second);
     if (first_frame) {
-      AddKeyframe(t_ns, std::move(obs), &first, gauge);
+      AddKeyframe(t_ns, std::move(obs), &first, gauge, std::move(points));
       first_frame = false;
     } else {
-      AddKeyframe(t_ns, std::move(obs), nullptr);
+      AddKeyframe(t_ns, std::move(obs), nullptr, std::nullopt, std::move(points));
     }
   }
+  pending_points.clear();
 }
 
 }  // namespace fsp::backend

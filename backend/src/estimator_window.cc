@@ -38,8 +38,10 @@ void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
   }
   AddVisualFactors(&problem, window_begin, n, /*mature=*/true);
   AddObjectPriors(&problem);
+  AddPointFactors(&problem);
   ceres::Solver::Summary s;
   if (!SolveOrReject(&problem, max_iterations, window_begin, finish, &s)) return;
+  RemovePointOutliers();
   summary.final_cost = s.final_cost;
   for (size_t i = window_begin; i < n; ++i)
     output[keyframes[i]->frame] = keyframes[i]->state.ToStateSample();
@@ -53,10 +55,14 @@ void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
 bool Estimator::Impl::SolveOrReject(ceres::Problem* problem, int max_iterations, size_t first,
                                     bool finish, ceres::Solver::Summary* s) {
   const Snapshot before = Save(first);
+  std::vector<std::pair<PointTrack*, double>> rho_before;
+  for (auto& [id, t] : point_tracks)
+    if (t.live) rho_before.emplace_back(&t, t.rho);
   ceres::Solve(SolverOptions(max_iterations, options.mode == EstimatorMode::kBatch), problem, s);
   const std::string diverged = Diverged(*s, before);
   if (diverged.empty()) return true;
   Restore(before);
+  for (auto& [t, rho] : rho_before) t->rho = rho;
   ++summary.divergences;
   if (finish) {
     Warn(keyframes.back()->state.t_ns,
@@ -85,6 +91,7 @@ void Estimator::Impl::SolveFrameAlone(int max_iterations) {
     if (it != objects.end() && it->second->observations >= options.mature_views)
       AddObservation(&problem, kf, it->second.get(), o.corners, o.seen, o.sigma_px, is_variable);
   }
+  AddPointFactorsOf(&problem, kf);
   std::vector<double*> blocks;
   problem.GetParameterBlocks(&blocks);
   for (double* b : blocks)
@@ -132,6 +139,7 @@ void Estimator::Impl::MarginalizeOldest() {
   // Objects that could not be re-anchored (s1 behind every window camera) keep their anchor:
   // their information from the window leaves with the keyframe and they are frozen.
   if (!FixedBoundary()) MarginalizeIntoPrior(old, next);
+  ReanchorPointsOf(old);
   // The old keyframe's observations stay as factors with its pose held constant (past views).
   for (const ObjectObservation& o : old->observations) {
     auto it = objects.find(o.object_id);
@@ -177,8 +185,19 @@ void Estimator::Impl::MarginalizeIntoPrior(Keyframe* old, Keyframe* next) {
       manifolds[prior->blocks[b]] = prior->manifolds[b];
     add(new MarginalizationPriorFactor(prior), nullptr, prior->blocks);
   }
-  const MarginalizationSummary ms = Marginalize(inputs, {old->state.pose, old->state.speed_bias},
-                                                manifolds, MarginalizationOptions());
+  std::unordered_set<const double*> marginalized = {old->state.pose, old->state.speed_bias};
+  if (UsePoints() && options.points.marginalize) {
+    // The views of the points anchored at `old` (every point `old` sees is: anchors are first
+    // views) with their inverse depths, as VINS-Mono: without them the window's position and yaw
+    // keep only the IMU chain's prior and wander (backend/README.md, "Points").
+    for (ResidualBlockInput& in : AddPointFactorsOf(old, &costs, &losses)) {
+      manifolds[in.parameter_blocks[0]] = &pose_manifold;  // a view's keyframe; [2] is ρ
+      marginalized.insert(in.parameter_blocks[2]);
+      inputs.push_back(std::move(in));
+    }
+  }
+  const MarginalizationSummary ms =
+      Marginalize(inputs, marginalized, manifolds, MarginalizationOptions());
   if (ms.success) {
     prior = ms.prior;
   } else {

@@ -184,7 +184,7 @@ struct Core {
   // The back end on one frame's observations (OUT.observations); fills OUT's back-end fields.
   void Back(int64_t t_ns, FrameOutput* out) {
     frontend::Stopwatch sw;
-    out->estimator_initialized = estimator.AddFrame(t_ns, out->observations);
+    out->estimator_initialized = estimator.AddFrame(t_ns, out->observations, out->points);
     out->backend_ms = sw.Lap();
   }
 
@@ -227,8 +227,7 @@ FrameOutput System::AddFrame(const Frame& frame) {
     state = static_cast<int>(c.states.size()) > c.lag ? c.states.front().get() : &NothingKnown();
   }
   FrameOutput fe = c.Front(frame, state);
-  FrameOutput out = AddObservations(frame.t_ns, fe.observations);
-  out.points = std::move(fe.points);
+  FrameOutput out = AddObservations(frame.t_ns, fe.observations, fe.points);
   out.frontend_times = std::move(fe.frontend_times);
   out.frontend_ms = fe.frontend_ms;
   out.detector_ran = fe.detector_ran;
@@ -239,10 +238,12 @@ FrameOutput System::AddFrame(const Frame& frame) {
 }
 
 FrameOutput System::AddObservations(int64_t t_ns,
-                                    const std::vector<ObjectObservation>& observations) {
+                                    const std::vector<ObjectObservation>& observations,
+                                    const std::vector<PointObservation>& points) {
   internal::Core& c = *core_;
   FrameOutput out;
   out.observations = observations;
+  out.points = points;
   c.Back(t_ns, &out);
   ++c.frames;
   if (c.lag > 0) {

@@ -179,6 +179,43 @@ struct ZeroVelocityOptions {
   bool Check(std::string* why) const;
 };
 
+// Point features beside the objects (backend/README.md, "Points"): each point is one inverse depth
+// ρ anchored at the keyframe of its first view in the window, along that view's bearing
+// (point_factor.h, as VINS-Mono), in the window only (not in the global step, not in the map).
+// They only act when AddFrame is given points (the pixel front ends' frontend.points); with none
+// (gt-corners, external corners) nothing changes.
+struct PointOptions {
+  bool enabled = true;
+  // Pixel noise of a tracked point [px] (the front end's LK drift: median 0.3, p90 0.8 px on the
+  // room), and its robust loss (k_sigma in σ units, per coordinate, as RobustLossOptions).
+  double sigma_px = 1.0;
+  RobustLossOptions robust{RobustLossOptions::Type::kHuber, 1.5};
+  // Live points in the window at most; new ones enter longest-tracked first. More: more
+  // constraints, more CPU per keyframe (each point a parameter and ~2 residuals per keyframe).
+  int max_points = 150;
+  // A point enters once seen by at least min_views keyframes whose rays (first and newest view,
+  // rotation removed) are at least min_parallax_deg apart: less parallax gives depths too
+  // uncertain to linearise [deg]...
+  int min_views = 2;
+  double min_parallax_deg = 1.0;
+  // ...triangulated (linear, over every window view) in front of every view, at a depth in the
+  // anchor within [min_depth_m, max_depth_m] (also the bounds of ρ in the solve) [m], and
+  // reprojected within max_triangulation_px of every view [px].
+  double min_depth_m = 0.1;
+  double max_depth_m = 50.0;
+  double max_triangulation_px = 3.0;
+  // After each window solve a point with a view further than this from its prediction is dropped
+  // (counted in points_rejected) [px].
+  double outlier_px = 3.0;
+  // When the anchor keyframe leaves the window: true, the point moves into the next keyframe that
+  // sees it (its bearing from that view, its depth from the estimate); false, it is dropped.
+  bool reanchor = true;
+  // ...and its views of the points anchored at it go into the marginalisation prior with their
+  // inverse depths (VINS-Mono); false: they are dropped with it.
+  bool marginalize = true;
+  bool Check(std::string* why) const;
+};
+
 struct EstimatorOptions {
   EstimatorMode mode = EstimatorMode::kWindow;
   LandmarkType landmarks = LandmarkType::kFsp;
@@ -297,6 +334,8 @@ struct EstimatorOptions {
   FaultOptions faults;
   GlobalOptions global;
   ZeroVelocityOptions zero_velocity;
+  // Window mode only (batch mode ignores points).
+  PointOptions points;
   bool Check(std::string* why) const;
 };
 
@@ -331,6 +370,16 @@ struct EstimatorSummary {
   int marginalization_failures = 0;  // Schur complement failed: the prior was dropped
   int zero_velocity_keyframes = 0;   // keyframes found standing still (ZeroVelocityOptions)
   int motion_only_frames = 0;        // frames solved for their own state alone (frame_motion_only)
+  // Point features (PointOptions; all 0 when no frame had points): frames given points, points
+  // that entered the window, of them dropped as outliers after a solve, dropped because their
+  // anchor left (no later view, or reanchor false), moved to a new anchor; the keyframes that saw
+  // each entered point, summed when it left the window (mean track length = that / points_used).
+  int point_frames = 0;
+  int points_used = 0;
+  int points_rejected = 0;
+  int points_dropped = 0;
+  int points_reanchored = 0;
+  int64_t point_track_keyframes = 0;
   // The stretches found standing still, [from, to] keyframe times as in trajectory.tum [s]: the
   // keyframes of each stretch and the one before them.
   std::vector<std::pair<double, double>> zero_velocity_stretches;
@@ -396,7 +445,9 @@ class Estimator {
   // without any is ignored). Frames in time order, after the IMU that covers them. Returns false
   // while the estimator is not initialised (the frame is buffered until the static interval is
   // complete) or after the initialisation refused (summary().init_failure).
-  bool AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& observations);
+  // POINTS: the frame's tracked point features (PointOptions), by id, undistorted pixels.
+  bool AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& observations,
+                const std::vector<PointObservation>& points = {});
   // Ends the sequence: final window solve, or the full batch solve.
   void Finish();
 

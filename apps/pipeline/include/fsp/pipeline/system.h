@@ -62,8 +62,8 @@ struct BackendState {
 // What one frame produced.
 struct FrameOutput {
   std::vector<ObjectObservation> observations;  // what the back end was given
-  // The front end's point features (frontend.points.enabled; AddFrame only). The back end does not
-  // use them yet.
+  // The front end's point features (frontend.points.enabled; AddFrame only), what the back end was
+  // given beside the observations (estimator.points).
   std::vector<PointObservation> points;
   frontend::StageTimes frontend_times;  // track, detect, associate (empty for AddObservations)
   double frontend_ms = 0.0;
@@ -90,8 +90,10 @@ class System {
   void AddImu(const ImuSample& sample);
   // A camera frame (8-bit grey, the calibration's size): front end, then back end.
   FrameOutput AddFrame(const Frame& frame);
-  // Observations made elsewhere (undistorted corners, s1..s4), for the back end alone.
-  FrameOutput AddObservations(int64_t t_ns, const std::vector<ObjectObservation>& observations);
+  // Observations made elsewhere (undistorted corners, s1..s4; point features), for the back end
+  // alone.
+  FrameOutput AddObservations(int64_t t_ns, const std::vector<ObjectObservation>& observations,
+                              const std::vector<PointObservation>& points = {});
   // Ends the sequence (the final window or batch solve).
   void Finish();
 
