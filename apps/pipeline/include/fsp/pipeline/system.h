@@ -62,8 +62,8 @@ struct BackendState {
 // What one frame produced.
 struct FrameOutput {
   std::vector<ObjectObservation> observations;  // what the back end was given
-  // The front end's point features (frontend.points.enabled; AddFrame only). The back end does not
-  // use them yet.
+  // The front end's point features (frontend.points.enabled; AddFrame only). The back end uses them
+  // to initialise in motion (EstimatorOptions::point_init), not in the window yet.
   std::vector<PointObservation> points;
   frontend::StageTimes frontend_times;  // track, detect, associate (empty for AddObservations)
   double frontend_ms = 0.0;
@@ -104,6 +104,8 @@ class System {
   const backend::EstimatorSummary& summary() const;
 
  private:
+  // The back end on OUT's observations and points; fills OUT's back-end fields.
+  void Back(int64_t t_ns, FrameOutput* out);
   std::unique_ptr<internal::Core> core_;
 };
 
