@@ -20,6 +20,8 @@ bool PointInitOptions::Check(std::string* why) const {
   else if (!(max_gyro_bias > 0.0) || !(max_rotation_rms_deg > 0.0) ||
            !(max_gravity_error_frac > 0.0) || !(max_speed > 0.0))
     os << "max_gyro_bias, max_rotation_rms_deg, max_gravity_error_frac and max_speed must be > 0";
+  else if (!(acc_bias_sigma >= 0.0) || !(max_acc_bias > 0.0))
+    os << "acc_bias_sigma must be >= 0, max_acc_bias > 0";
   else if (!(min_depth_m > 0.0) || !(max_depth_m > min_depth_m))
     os << "min_depth_m must be > 0 and max_depth_m > min_depth_m";
   else if (!sfm.Check(&sfm_why))
@@ -85,8 +87,11 @@ PointInitSummary InitializeFromPoints(const std::vector<SfmFrame>& frames,
   }
   // 3. Velocities, gravity, scale.
   const Vec3 p_B_C = T_B_C.translation();
+  AlignmentOptions ao;
+  ao.acc_bias_sigma = options.acc_bias_sigma;
   const Alignment al =
-      AlignWithGravityMagnitude(views, pre, p_B_C, preint.gravity, 4, &out.gravity_error);
+      AlignWithGravityMagnitude(views, pre, p_B_C, preint.gravity, 4, &out.gravity_error, ao);
+  out.acc_bias = al.acc_bias;
   out.scale = al.s;
   out.alignment_rms = al.residual_rms;
   if (!(out.gravity_error <= options.max_gravity_error_frac * preint.gravity)) {
@@ -98,6 +103,11 @@ PointInitSummary InitializeFromPoints(const std::vector<SfmFrame>& frames,
   }
   if (!(al.s > 0.0) || !std::isfinite(al.s)) {
     out.reason = Fmt("the scale is not positive (%.3g)", al.s);
+    return out;
+  }
+  if (!(al.acc_bias.norm() <= options.max_acc_bias)) {
+    out.reason = Fmt("the accelerometer bias comes out implausible (%.3f m/s^2, allowed %.3f)",
+                     al.acc_bias.norm(), options.max_acc_bias);
     return out;
   }
   double speed = 0.0;

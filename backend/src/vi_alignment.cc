@@ -8,12 +8,15 @@ namespace fsp::backend {
 
 Alignment AlignVisualInertial(const std::vector<AlignmentView>& views,
                               const std::vector<std::unique_ptr<ImuPreintegration>>& pre,
-                              const Vec3& p_B_C, const Vec3* g_dir, double g_mag) {
+                              const Vec3& p_B_C, const Vec3* g_dir, double g_mag,
+                              const AlignmentOptions& options) {
   const int m = static_cast<int>(views.size());
   const int ng = g_dir ? 2 : 3;
-  const int n = 3 * m + ng + 1;
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(6 * (m - 1), n);
-  Eigen::VectorXd b = Eigen::VectorXd::Zero(6 * (m - 1));
+  const bool with_ba = options.acc_bias_sigma > 0.0;
+  const int n = 3 * m + ng + 1 + (with_ba ? 3 : 0);
+  const int rows = 6 * (m - 1) + (with_ba ? 3 : 0);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(rows, n);
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(rows);
   Eigen::Matrix<double, 3, Eigen::Dynamic> G(3, ng);  // g = g0 + G δ
   Vec3 g0 = Vec3::Zero();
   if (g_dir) {
@@ -25,7 +28,7 @@ Alignment AlignVisualInertial(const std::vector<AlignmentView>& views,
   } else {
     G = Mat3::Identity();
   }
-  const int gi = 3 * m, si = 3 * m + ng;
+  const int gi = 3 * m, si = 3 * m + ng, ai = si + 1;
   for (int k = 0; k + 1 < m; ++k) {
     const ImuPreintegration& p = *pre[k];
     const double dt = p.dt();
@@ -42,12 +45,20 @@ Alignment AlignVisualInertial(const std::vector<AlignmentView>& views,
     A.block<3, 3>(r + 3, 3 * k) = -Mat3::Identity();
     A.block(r + 3, gi, 3, ng) = -dt * G;
     b.segment<3>(r + 3) = Ri * p.delta_v() + dt * g0;
+    if (with_ba) {  // Δ(b_a) = Δ + J (b_a − b̄_a), b̄_a the linearisation point
+      A.block<3, 3>(r, ai) = -Ri * p.dp_dba();
+      A.block<3, 3>(r + 3, ai) = -Ri * p.dv_dba();
+      b.segment<3>(r) -= Ri * p.dp_dba() * p.ba_lin();
+      b.segment<3>(r + 3) -= Ri * p.dv_dba() * p.ba_lin();
+    }
   }
+  if (with_ba) A.block<3, 3>(6 * (m - 1), ai) = Mat3::Identity() / options.acc_bias_sigma;
   const Eigen::VectorXd x = A.colPivHouseholderQr().solve(b);
   Alignment out;
   for (int k = 0; k < m; ++k) out.v.push_back(x.segment<3>(3 * k));
   out.g = g0 + G * x.segment(gi, ng);
   out.s = x[si];
+  if (with_ba) out.acc_bias = x.segment<3>(ai);
   if (b.size() > 0) out.residual_rms = std::sqrt((A * x - b).squaredNorm() / b.size());
   return out;
 }
@@ -55,13 +66,13 @@ Alignment AlignVisualInertial(const std::vector<AlignmentView>& views,
 Alignment AlignWithGravityMagnitude(const std::vector<AlignmentView>& views,
                                     const std::vector<std::unique_ptr<ImuPreintegration>>& pre,
                                     const Vec3& p_B_C, double g_mag, int iterations,
-                                    double* gravity_error) {
-  Alignment al = AlignVisualInertial(views, pre, p_B_C, nullptr, g_mag);
+                                    double* gravity_error, const AlignmentOptions& options) {
+  Alignment al = AlignVisualInertial(views, pre, p_B_C, nullptr, g_mag, options);
   if (gravity_error) *gravity_error = std::abs(al.g.norm() - g_mag);
   if (!(al.g.norm() > 0.0) || !std::isfinite(al.g.norm())) return al;
   for (int it = 0; it < iterations; ++it) {
     const Vec3 dir = al.g.normalized();
-    al = AlignVisualInertial(views, pre, p_B_C, &dir, g_mag);
+    al = AlignVisualInertial(views, pre, p_B_C, &dir, g_mag, options);
   }
   return al;
 }

@@ -7,6 +7,8 @@
 #include <map>
 #include <memory>
 #include <sstream>
+#include <tuple>
+#include <utility>
 
 #include <ceres/ceres.h>
 #include <Eigen/Dense>
@@ -31,6 +33,8 @@ bool VisualSfmOptions::Check(std::string* why) const {
     os << "max_rotation_error_deg must be > 0, max_gyro_bias and min_ray_angle_deg >= 0";
   else if (ba_iterations < 1)
     os << "ba_iterations must be >= 1";
+  else if (!(keyframe_min_tracked >= 0.0 && keyframe_min_tracked <= 1.0) || !(min_span_s >= 0.0))
+    os << "keyframe_min_tracked must be in [0, 1], min_span_s >= 0";
   if (why) *why = os.str();
   return os.str().empty();
 }
@@ -206,45 +210,47 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
     const double par =
         MedianParallax(px[kf.back()], px[k], K, Kinv, R_Ca_Cb(kf.back(), k), &shared);
     const double dt = 1e-9 * static_cast<double>(frames[k].t_ns - frames[kf.back()].t_ns);
-    if (par >= o.keyframe_parallax_px || dt >= o.max_keyframe_interval_s || k + 1 == frames.size())
+    const bool tracks_fading =
+        shared < o.keyframe_min_tracked * static_cast<double>(px[kf.back()].size());
+    if (par >= o.keyframe_parallax_px || dt >= o.max_keyframe_interval_s || tracks_fading ||
+        k + 1 == frames.size())
       kf.push_back(k);
   }
   out.keyframes = static_cast<int>(kf.size());
 
-  // 2. The initial pair: the first keyframe and the first with enough parallax to it.
-  int pair = -1, most_shared = 0;
-  for (size_t j = 1; j < kf.size(); ++j) {
-    int shared = 0;
-    const double par = RotationFreeParallax(px[kf[0]], px[kf[j]], Kinv, f, &shared);
-    if (shared >= o.min_points) out.max_parallax_px = std::max(out.max_parallax_px, par);
-    most_shared = std::max(most_shared, shared);
-    if (shared >= o.min_points && par >= o.min_parallax_px) {
-      pair = static_cast<int>(j);
-      out.pair_parallax_px = par;
-      break;
+  // 2. The initial pair: of the keyframe pairs sharing min_points, the one with the most parallax.
+  int pa = -1, pb = -1, most_shared = 0;
+  for (size_t i = 0; i < kf.size(); ++i)
+    for (size_t j = i + 1; j < kf.size(); ++j) {
+      int shared = 0;
+      const double par = RotationFreeParallax(px[kf[i]], px[kf[j]], Kinv, f, &shared);
+      most_shared = std::max(most_shared, shared);
+      if (shared < o.min_points) break;  // later keyframes share fewer still
+      if (par > out.max_parallax_px) {
+        out.max_parallax_px = par;
+        std::tie(pa, pb) = std::pair<int, int>(static_cast<int>(i), static_cast<int>(j));
+      }
     }
-  }
-  if (pair < 0) {
-    out.reason = out.max_parallax_px > 0.0
-                     ? Fmt("too little parallax: the largest median parallax no rotation "
-                           "explains, to the first keyframe, is %.1f px (needs %.0f px)",
-                           out.max_parallax_px, o.min_parallax_px)
-                     : Fmt("too few points: the first keyframe shares at most %.0f points with a "
-                           "later one (needs %.0f)",
-                           most_shared, o.min_points);
+  if (pa < 0 || out.max_parallax_px < o.min_parallax_px) {
+    out.reason = pa >= 0 ? Fmt("too little parallax: the largest median parallax no rotation "
+                               "explains, between two keyframes sharing %.0f points, is %.1f px "
+                               "(needs %.0f px)",
+                               o.min_points, out.max_parallax_px, o.min_parallax_px)
+                         : Fmt("too few points: two keyframes share at most %.0f points (needs "
+                               "%.0f)",
+                               most_shared, o.min_points);
     return out;
   }
-  out.pair_first = kf[0];
-  out.pair_second = kf[pair];
+  out.pair_parallax_px = out.max_parallax_px;
+  out.pair_first = kf[pa];
+  out.pair_second = kf[pb];
   std::vector<cv::Point2d> p0, p1;
-  std::vector<int64_t> ids;
-  for (const auto& [id, uv] : px[kf[pair]]) {
-    const auto it = px[kf[0]].find(id);
-    if (it == px[kf[0]].end()) continue;
+  for (const auto& [id, uv] : px[kf[pb]]) {
+    const auto it = px[kf[pa]].find(id);
+    if (it == px[kf[pa]].end()) continue;
     const Vec3 a = Kinv * it->second.homogeneous(), b = Kinv * uv.homogeneous();
     p0.emplace_back(a.x() / a.z(), a.y() / a.z());
     p1.emplace_back(b.x() / b.z(), b.y() / b.z());
-    ids.push_back(id);
   }
   const cv::Mat I = cv::Mat::eye(3, 3, CV_64F);
   cv::Mat mask;
@@ -265,9 +271,9 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
   cv::cv2eigen(Rcv, R_C1_C0);
   cv::cv2eigen(tcv, t_C1_C0);
   {
-    const Mat3 gyro = R_Ca_Cb(kf[0], kf[pair]);  // R_C0_C1
+    const Mat3 gyro = R_Ca_Cb(kf[pa], kf[pb]);  // R_C0_C1
     out.rotation_error_deg = LogSO3(gyro * R_C1_C0).norm() / kDeg;
-    const double dt = 1e-9 * static_cast<double>(frames[kf[pair]].t_ns - frames[kf[0]].t_ns);
+    const double dt = 1e-9 * static_cast<double>(frames[kf[pb]].t_ns - frames[kf[pa]].t_ns);
     const double allowed = o.max_rotation_error_deg + o.max_gyro_bias * dt / kDeg;
     if (!(out.rotation_error_deg <= allowed)) {
       out.reason =
@@ -286,8 +292,8 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
       tracks[id].views.emplace_back(static_cast<int>(s), x.head<2>() / x.z());
     }
   std::vector<Pose> T_C_S(kf.size());
-  T_C_S[0] = {true, Rigid3::Identity()};
-  T_C_S[pair] = {true, Rigid3(R_C1_C0, t_C1_C0.normalized())};
+  T_C_S[pa] = {true, Rigid3::Identity()};
+  T_C_S[pb] = {true, Rigid3(R_C1_C0, t_C1_C0.normalized())};
   const auto triangulate_all = [&] {
     int n = 0;
     for (auto& [id, tr] : tracks)
@@ -295,22 +301,19 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
     return n;
   };
   triangulate_all();
-  for (size_t s = 1; s < kf.size(); ++s) {
-    if (T_C_S[s].known) continue;
+  // PnP for keyframe S from the points with a position, started at the pose of keyframe G.
+  const auto pnp = [&](int s, int g) {
     std::vector<cv::Point3d> X;
     std::vector<cv::Point2d> x;
     for (const auto& [id, tr] : tracks) {
       if (!tr.triangulated) continue;
       for (const auto& [k, xn] : tr.views)
-        if (k == static_cast<int>(s)) {
+        if (k == s) {
           X.emplace_back(tr.X.x(), tr.X.y(), tr.X.z());
           x.emplace_back(xn.x(), xn.y());
         }
     }
-    if (static_cast<int>(X.size()) < o.min_pnp_points) continue;
-    // Initial guess: the nearest posed keyframe before it.
-    size_t g = s;
-    while (!T_C_S[g].known) --g;
+    if (static_cast<int>(X.size()) < o.min_pnp_points) return false;
     cv::Mat rvec, tvec, R0;
     cv::eigen2cv(Mat3(T_C_S[g].T_C_S.R()), R0);
     cv::Rodrigues(R0, rvec);
@@ -319,7 +322,7 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
     const bool ok =
         cv::solvePnPRansac(X, x, I, cv::noArray(), rvec, tvec, true, 100, 2.0 * o.ransac_px / f,
                            0.99, inliers, cv::SOLVEPNP_ITERATIVE);
-    if (!ok || static_cast<int>(inliers.size()) < o.min_pnp_points) continue;
+    if (!ok || static_cast<int>(inliers.size()) < o.min_pnp_points) return false;
     cv::Mat Rm;
     cv::Rodrigues(rvec, Rm);
     Mat3 R;
@@ -328,10 +331,26 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
     cv::cv2eigen(tvec, t);
     T_C_S[s] = {true, Rigid3(Orthonormalize(R), t)};
     triangulate_all();
+    return true;
+  };
+  // Outwards from the pair: the keyframes between them, then later ones, then earlier ones, each
+  // direction until a keyframe cannot be posed (the tracks broke).
+  const int n_kf = static_cast<int>(kf.size());
+  for (int s = pa + 1; s < pb; ++s) pnp(s, s - 1 >= pa && T_C_S[s - 1].known ? s - 1 : pa);
+  for (int s = pb + 1; s < n_kf && pnp(s, s - 1); ++s) {
+  }
+  for (int s = pa - 1; s >= 0 && pnp(s, s + 1); --s) {
   }
   std::vector<int> posed;
   for (size_t s = 0; s < kf.size(); ++s)
     if (T_C_S[s].known) posed.push_back(static_cast<int>(s));
+  const double span_s =
+      1e-9 * static_cast<double>(frames[kf[posed.back()]].t_ns - frames[kf[posed.front()]].t_ns);
+  if (!(span_s >= o.min_span_s)) {
+    out.reason = Fmt("the keyframes posed span %.2f s only (needs %.2f s): the tracks broke",
+                     span_s, o.min_span_s);
+    return out;
+  }
   if (static_cast<int>(posed.size()) < o.min_keyframes) {
     out.reason =
         Fmt("too few keyframes posed (%.0f of %.0f, needs %.0f)", static_cast<double>(posed.size()),
@@ -369,11 +388,11 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
     return out;
   }
   for (int s : posed) problem.SetManifold(q[s].data(), &quat);
-  problem.SetParameterBlockConstant(q[0].data());
-  problem.SetParameterBlockConstant(t[0].data());
+  problem.SetParameterBlockConstant(q[pa].data());
+  problem.SetParameterBlockConstant(t[pa].data());
   problem.AddResidualBlock(
       new ceres::AutoDiffCostFunction<UnitBaselineCost, 1, 3>(new UnitBaselineCost), nullptr,
-      t[pair].data());
+      t[pb].data());
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_SCHUR;
   so.max_num_iterations = o.ba_iterations;

@@ -51,6 +51,13 @@ struct PointInitOptions {
   // The rotations after the bias fit must agree with the gyroscope's within this, RMS per
   // keyframe interval [deg].
   double max_rotation_rms_deg = 1.0;
+  // The accelerometer bias is estimated with the alignment when this is > 0: its prior σ relative
+  // to the alignment's unweighted equations (vi_alignment.h; 0: b_a = 0 as in VINS-Mono). A bias
+  // constant in B looks like gravity until the body turns; unmodelled, what gravity's fixed
+  // magnitude cannot take goes into the scale.
+  double acc_bias_sigma = 0.0;
+  // An estimated accelerometer bias above this is refused [m/s^2].
+  double max_acc_bias = 1.0;
   // | |g| − gravity | / gravity of the free solution at most (before |g| is fixed).
   double max_gravity_error_frac = 0.1;
   // The velocities at most [m/s], and the points' median depth within [min_depth_m, max_depth_m]
@@ -68,6 +75,7 @@ struct PointInitSummary {
   Rigid3 T_W_B;        // at that frame
   Vec3 v_W = Vec3::Zero();
   Vec3 gyro_bias = Vec3::Zero();
+  Vec3 acc_bias = Vec3::Zero();   // 0 unless acc_bias_sigma > 0
   double scale = 0.0;             // metres per unit of the structure from motion
   double baseline_m = 0.0;        // metric distance of the first to the last keyframe's camera [m]
   int64_t t_last_ns = 0;          // the last keyframe's time

@@ -3,21 +3,23 @@
 //
 // 1. Keyframes by parallax: a frame becomes a keyframe when the median parallax of the points it
 //    shares with the last keyframe, after removing the gyroscope's rotation between them (bias 0),
-//    reaches keyframe_parallax_px, or max_keyframe_interval_s has passed.
-// 2. The initial pair: the first keyframe and the first later keyframe with min_points shared
-//    points whose median parallax that no rotation explains (the bearings' residual angle after
-//    the rotation that best aligns them, Kabsch; the gyroscope's rotation is not used here: an
-//    unknown bias of 0.02 rad/s over 1.5 s is 17 px at f = 400) reaches min_parallax_px; their
-//    relative pose from the essential matrix (OpenCV findEssentialMat + recoverPose, RANSAC on
-//    normalised points), whose rotation must agree with the gyroscope's within
-//    max_rotation_error_deg plus what a bias of max_gyro_bias could add over the interval.
+//    reaches keyframe_parallax_px, when max_keyframe_interval_s has passed, or when fewer than
+//    keyframe_min_tracked of the last keyframe's points are still tracked.
+// 2. The initial pair: of the keyframe pairs sharing min_points, the one whose median parallax
+//    that no rotation explains is largest (the bearings' residual angle after the rotation that
+//    best aligns them, Kabsch; not the gyroscope's rotation: an unknown bias of 0.02 rad/s over
+//    1.5 s is 17 px at f = 400); it must reach min_parallax_px. Their relative pose from the
+//    essential matrix (OpenCV findEssentialMat + recoverPose, RANSAC on normalised points), whose
+//    rotation must agree with the gyroscope's within max_rotation_error_deg plus what a bias of
+//    max_gyro_bias could add over the interval.
 // 3. Triangulation (linear, every posed view of a point; cheirality, reprojection and a minimum
-//    ray angle), then PnP (OpenCV solvePnPRansac) for the other keyframes in time order, each
-//    followed by the triangulation of the points it makes possible.
+//    ray angle), then PnP (OpenCV solvePnPRansac) for the other keyframes outwards from the pair,
+//    each followed by the triangulation of the points it makes possible; a direction stops at the
+//    first keyframe that cannot be posed, and the posed ones must span min_span_s.
 // 4. A bundle adjustment (Ceres, Huber loss on pixel residuals) over the keyframes and points; the
-//    first keyframe is held and the second of the pair kept at unit distance from it (the scale's
+//    pair's first keyframe is held and its second kept at unit distance from it (the scale's
 //    gauge).
-// S, the result's frame, is the first keyframe's camera frame; lengths are in units of the initial
+// S, the result's frame, is the pair's first camera frame; lengths are in units of the initial
 // pair's baseline. It REFUSES (success = false, reason) with too little parallax, too few points,
 // an essential matrix that disagrees with the gyroscope, or a bundle adjustment that leaves a
 // large reprojection error.
@@ -38,6 +40,10 @@ struct VisualSfmOptions {
   // alignment, more CPU); the IMU terms want the keyframes close, the triangulation far apart.
   double keyframe_parallax_px = 10.0;
   double max_keyframe_interval_s = 0.25;
+  // ...or when fewer than this fraction of the last keyframe's points are still tracked: on the
+  // DM-VIO walk (1280x720, turning fast) a third of the points are lost per frame, and consecutive
+  // keyframes must share points for the PnP chain.
+  double keyframe_min_tracked = 0.5;
   // The initial pair's median parallax that no rotation explains at least [px]: the essential
   // matrix and the triangulation need the translation to show. A pure rotation leaves the tracking
   // noise (0.8 px with 0.5 px noise on the rendered start); 0.8 m sideways past points 3-8 m away
@@ -47,8 +53,10 @@ struct VisualSfmOptions {
   int min_points = 30;
   // Points with a 3-D position a keyframe must see for its PnP; fewer: the keyframe is skipped.
   int min_pnp_points = 12;
-  // Posed keyframes at least (the alignment needs several IMU intervals).
+  // Posed keyframes at least (the alignment needs several IMU intervals), spanning at least this
+  // [s] (the acceleration must show).
   int min_keyframes = 4;
+  double min_span_s = 1.0;
   // RANSAC threshold of the essential matrix and PnP [px].
   double ransac_px = 1.0;
   // The essential matrix's rotation may differ from the gyroscope's by this [deg], plus
