@@ -229,10 +229,9 @@ struct Estimator::Impl {
   // The initialisation in motion from the pending frames' points (point_init.h); sets *REASON when
   // it refused, and drops the oldest retry_step_s of frames for the next attempt.
   bool TryInitializeFromPoints(std::string* reason);
-  // Starts the first session in motion at pending frame FIRST_INDEX with that state (acc bias 0),
-  // warning WHAT.
+  // Starts the first session in motion at pending frame FIRST_INDEX with that state, warning WHAT.
   void StartInMotion(size_t first_index, const Rigid3& T_W_B, const Vec3& v_W,
-                     const Vec3& gyro_bias, const std::string& what);
+                     const Vec3& gyro_bias, const Vec3& acc_bias, const std::string& what);
   // Refusals of the initialisation from points listed in the warnings at most.
   static constexpr int kMaxInitWarnings = 10;
   // Drops the N oldest pending frames.

@@ -98,7 +98,7 @@ bool Estimator::Impl::TryInitializeInMotion(const std::string& static_reason) {
                       "initialised in motion from object %d (%d views, width %.3g m, |g| off by "
                       "%.2f m/s^2, speed %.2f m/s)",
                       m.object_id, m.views, m.width, m.gravity_error, m.v_W.norm());
-        StartInMotion(m.first, m.T_W_B, m.v_W, m.gyro_bias, what);
+        StartInMotion(m.first, m.T_W_B, m.v_W, m.gyro_bias, Vec3::Zero(), what);
         return true;
       }
       rect_reason = m.reason;
@@ -118,6 +118,12 @@ bool Estimator::Impl::TryInitializeInMotion(const std::string& static_reason) {
   if (TryInitializeFromPoints(&reason)) return true;
   ++summary.init_attempts_refused;
   summary.init_last_refusal = reason;
+  {
+    std::string kind = reason.substr(0, reason.find_first_of("0123456789("));
+    while (!kind.empty() && (kind.back() == ' ' || kind.back() == ',' || kind.back() == ':'))
+      kind.pop_back();
+    ++summary.init_refusals[kind];
+  }
   if (summary.init_attempts_refused <= kMaxInitWarnings)
     Warn(t0, "initialisation in motion from points refused: " + reason +
                  (summary.init_attempts_refused == kMaxInitWarnings
@@ -159,20 +165,23 @@ bool Estimator::Impl::TryInitializeFromPoints(std::string* reason) {
                 "speed %.2f m/s; %d attempts refused before)",
                 p.keyframes, p.points, p.scale, p.baseline_m, p.gravity_error, p.gyro_bias.norm(),
                 p.v_W.norm(), summary.init_attempts_refused);
-  StartInMotion(p.first, p.T_W_B, p.v_W, p.gyro_bias, what);
+  StartInMotion(p.first, p.T_W_B, p.v_W, p.gyro_bias, p.acc_bias, what);
   return true;
 }
 
 void Estimator::Impl::StartInMotion(size_t first_index, const Rigid3& T_W_B, const Vec3& v_W,
-                                    const Vec3& gyro_bias, const std::string& what) {
+                                    const Vec3& gyro_bias, const Vec3& acc_bias,
+                                    const std::string& what) {
   summary.init_in_motion = true;
   summary.init_gyro_bias = gyro_bias;
+  summary.init_acc_bias = acc_bias;
   summary.init_speed = v_W.norm();
   KeyframeState first;
   first.t_ns = pending[first_index].first;
   first.SetT_W_B(T_W_B);
   VelocityOf(first.speed_bias) = v_W;
   GyroBiasOf(first.speed_bias) = gyro_bias;
+  AccBiasOf(first.speed_bias) = acc_bias;
   Gauge gauge;
   gauge.sigma_sb << Vec3::Constant(options.motion_init_velocity_sigma),
       Vec3::Constant(options.prior_gyro_bias_sigma), Vec3::Constant(options.prior_acc_bias_sigma);

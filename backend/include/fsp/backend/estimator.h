@@ -321,6 +321,7 @@ struct EstimatorSummary {
   // before gravity's magnitude was fixed [m/s^2] (in motion), and the scale: the metric width of
   // the reference object (rectangle) or metres per unit of the structure from motion (points).
   Vec3 init_gyro_bias = Vec3::Zero();
+  Vec3 init_acc_bias = Vec3::Zero();  // [m/s^2]; estimated by the points' init on request, else 0
   double init_speed = 0.0;
   double init_gravity_error = 0.0;
   double init_scale = 0.0;
@@ -332,6 +333,8 @@ struct EstimatorSummary {
   // last refusal's reason.
   int init_attempts_refused = 0;
   std::string init_last_refusal;
+  // The refusals by kind (their reason up to its first number or parenthesis) and count.
+  std::map<std::string, int> init_refusals;
   int frames = 0;                // frames given to AddFrame
   int keyframes = 0;             // keyframes created
   int observations_used = 0;     // observations of objects in the map (they become factors)
