@@ -73,7 +73,7 @@ void Run(const RunArgs& args) {
   }
   const RunReport r = RunPipeline(request, config);
   if (!r.summary.init_failure.empty()) {
-    throw InputError("static initialisation refused: " + r.summary.init_failure);
+    throw InputError("initialisation refused: " + r.summary.init_failure);
   }
   std::printf("fsp run: %s, %s landmarks, %s mode, front end %s", r.input.c_str(),
               r.landmarks.c_str(), r.mode.c_str(), r.frontend.c_str());

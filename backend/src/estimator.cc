@@ -88,6 +88,8 @@ bool EstimatorOptions::Check(std::string* why) const {
     os << "init: " << sub;
   else if (!motion_init.Check(&sub))
     os << "motion_init: " << sub;
+  else if (!point_init.Check(&sub))
+    os << "point_init: " << sub;
   else if (!(motion_init_velocity_sigma > 0.0))
     os << "motion_init_velocity_sigma must be > 0";
   else if (!static_init.Check(&sub))
@@ -428,7 +430,8 @@ bool Estimator::AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& giv
     std::copy_if(observations.begin(), observations.end(), std::back_inserter(whole),
                  [](const ObjectObservation& o) { return o.Complete(); });
     d.pending.emplace_back(t_ns, std::move(whole));
-    if (d.UsePoints() && !points.empty()) d.pending_points[t_ns] = points;
+    if (!points.empty() && (d.UsePoints() || d.options.point_init.enabled))
+      d.pending_points[t_ns] = points;
     return d.TryInitialize();
   }
   d.AddKeyframe(t_ns, observations, nullptr, std::nullopt,
@@ -446,7 +449,11 @@ void Estimator::Finish() {
                   "the sequence ended before the static initialisation interval (%g s of IMU "
                   "after the first frame)",
                   d.options.static_init.window_s);
-    d.summary.init_failure = why;
+    d.summary.init_failure = d.summary.init_last_refusal.empty()
+                                 ? std::string(why)
+                                 : "the sequence ended before the initialisation succeeded; the "
+                                   "last attempt: " +
+                                       d.summary.init_last_refusal;
   }
   if (d.last_frame_t) d.NoteFrame(*d.last_frame_t, true, /*end=*/true);
   if (!d.summary.initialized) return;

@@ -249,6 +249,18 @@ struct Estimator::Impl {
   // The static initialisation refused with STATIC_REASON: tries the initialisation in motion on the
   // pending frames (dropping the oldest when it refuses, until max_wait_s).
   bool TryInitializeInMotion(const std::string& static_reason);
+  // The initialisation in motion from the pending frames' points (point_init.h); sets *REASON when
+  // it refused, and drops the oldest retry_step_s of frames for the next attempt.
+  bool TryInitializeFromPoints(std::string* reason);
+  // Starts the first session in motion at pending frame FIRST_INDEX with that state, warning WHAT.
+  void StartInMotion(size_t first_index, const Rigid3& T_W_B, const Vec3& v_W,
+                     const Vec3& gyro_bias, const Vec3& acc_bias, const std::string& what);
+  // Refusals of the initialisation from points listed in the warnings at most.
+  static constexpr int kMaxInitWarnings = 10;
+  // Drops the N oldest pending frames.
+  void DropPending(size_t n);
+  // The rectangle in motion already refused on the window starting at this frame time.
+  std::optional<int64_t> rect_tried_t0;
   // Starts the first session at FRAMES[0] with state FIRST and its gauge priors, then adds the
   // other frames.
   void StartSession(std::vector<std::pair<int64_t, std::vector<ObjectObservation>>> frames,

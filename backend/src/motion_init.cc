@@ -9,6 +9,8 @@
 
 #include <Eigen/Dense>
 
+#include "fsp/backend/vi_alignment.h"
+
 namespace fsp::backend {
 
 bool MotionInitOptions::Check(std::string* why) const {
@@ -46,55 +48,9 @@ double QuadArea(const Corners& c) {
   return std::abs(0.5 * a);
 }
 
-// Velocities, gravity and scale from consecutive views (the header's equations). With a gravity
-// direction `g_dir`, gravity is g_mag g_dir + B δ (δ on the tangent) instead of free.
-struct Alignment {
-  std::vector<Vec3> v;
-  Vec3 g = Vec3::Zero();
-  double s = 0.0;
-};
-Alignment Align(const std::vector<View>& views,
-                const std::vector<std::unique_ptr<ImuPreintegration>>& pre, const Vec3& p_B_C,
-                const Vec3* g_dir, double g_mag) {
-  const int m = static_cast<int>(views.size());
-  const int ng = g_dir ? 2 : 3;
-  const int n = 3 * m + ng + 1;
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(6 * (m - 1), n);
-  Eigen::VectorXd b = Eigen::VectorXd::Zero(6 * (m - 1));
-  Eigen::Matrix<double, 3, Eigen::Dynamic> G(3, ng);  // g = g0 + G δ
-  Vec3 g0 = Vec3::Zero();
-  if (g_dir) {
-    g0 = g_mag * *g_dir;
-    Vec3 a = std::abs(g_dir->x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
-    const Vec3 b1 = (a - g_dir->dot(a) * *g_dir).normalized();
-    G.col(0) = b1;
-    G.col(1) = g_dir->cross(b1);
-  } else {
-    G = Mat3::Identity();
-  }
-  const int gi = 3 * m, si = 3 * m + ng;
-  for (int k = 0; k + 1 < m; ++k) {
-    const ImuPreintegration& p = *pre[k];
-    const double dt = p.dt();
-    const Mat3& Ri = views[k].R_O_B;
-    const Mat3& Rj = views[k + 1].R_O_B;
-    const int r = 6 * k;
-    // s (ĉ_j − ĉ_i) − v_i dt − ½ g dt² = R_i Δp + (R_j − R_i) p_B_C
-    A.block<3, 1>(r, si) = views[k + 1].c_hat - views[k].c_hat;
-    A.block<3, 3>(r, 3 * k) = -dt * Mat3::Identity();
-    A.block(r, gi, 3, ng) = -0.5 * dt * dt * G;
-    b.segment<3>(r) = Ri * p.delta_p() + (Rj - Ri) * p_B_C + 0.5 * dt * dt * g0;
-    // v_j − v_i − g dt = R_i Δv
-    A.block<3, 3>(r + 3, 3 * (k + 1)) = Mat3::Identity();
-    A.block<3, 3>(r + 3, 3 * k) = -Mat3::Identity();
-    A.block(r + 3, gi, 3, ng) = -dt * G;
-    b.segment<3>(r + 3) = Ri * p.delta_v() + dt * g0;
-  }
-  const Eigen::VectorXd x = A.colPivHouseholderQr().solve(b);
-  Alignment out;
-  for (int k = 0; k < m; ++k) out.v.push_back(x.segment<3>(3 * k));
-  out.g = g0 + G * x.segment(gi, ng);
-  out.s = x[si];
+std::vector<AlignmentView> ForAlignment(const std::vector<View>& views) {
+  std::vector<AlignmentView> out;
+  for (const View& v : views) out.push_back({v.R_O_B, v.c_hat});
   return out;
 }
 
@@ -200,7 +156,8 @@ MotionInitSummary InitializeInMotion(const std::vector<BufferedFrame>& frames,
   }
   // 3. Velocities, gravity, scale; then gravity's magnitude fixed.
   const Vec3 p_B_C = T_B_C.translation();
-  Alignment al = Align(views, pre, p_B_C, nullptr, preint.gravity);
+  const std::vector<AlignmentView> aviews = ForAlignment(views);
+  Alignment al = AlignVisualInertial(aviews, pre, p_B_C, nullptr, preint.gravity);
   out.gravity_error = std::abs(al.g.norm() - preint.gravity);
   if (!(al.s > 0.0) || !std::isfinite(al.s) || out.gravity_error > options.max_gravity_error) {
     char why[200];
@@ -213,7 +170,7 @@ MotionInitSummary InitializeInMotion(const std::vector<BufferedFrame>& frames,
   }
   for (int it = 0; it < 4; ++it) {
     const Vec3 dir = al.g.normalized();
-    al = Align(views, pre, p_B_C, &dir, preint.gravity);
+    al = AlignVisualInertial(aviews, pre, p_B_C, &dir, preint.gravity);
   }
   if (!(al.s > 0.0) || !std::isfinite(al.s)) {
     out.reason = "in motion: the scale is not positive after fixing gravity's magnitude";

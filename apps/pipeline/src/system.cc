@@ -226,31 +226,29 @@ FrameOutput System::AddFrame(const Frame& frame) {
     // The state after frame frames - 1 - lag; states holds those after frames - 1 - lag .. - 1.
     state = static_cast<int>(c.states.size()) > c.lag ? c.states.front().get() : &NothingKnown();
   }
-  FrameOutput fe = c.Front(frame, state);
-  FrameOutput out = AddObservations(frame.t_ns, fe.observations, fe.points);
-  out.frontend_times = std::move(fe.frontend_times);
-  out.frontend_ms = fe.frontend_ms;
-  out.detector_ran = fe.detector_ran;
-  out.objects_started = fe.objects_started;
-  out.objects_reidentified = fe.objects_reidentified;
-  out.objects_lost = fe.objects_lost;
+  FrameOutput out = c.Front(frame, state);
+  Back(frame.t_ns, &out);
   return out;
 }
 
 FrameOutput System::AddObservations(int64_t t_ns,
                                     const std::vector<ObjectObservation>& observations,
                                     const std::vector<PointObservation>& points) {
-  internal::Core& c = *core_;
   FrameOutput out;
   out.observations = observations;
   out.points = points;
-  c.Back(t_ns, &out);
+  Back(t_ns, &out);
+  return out;
+}
+
+void System::Back(int64_t t_ns, FrameOutput* out) {
+  internal::Core& c = *core_;
+  c.Back(t_ns, out);
   ++c.frames;
   if (c.lag > 0) {
     c.states.push_back(std::make_shared<const BackendState>(c.State()));
     while (static_cast<int>(c.states.size()) > c.lag + 1) c.states.pop_front();
   }
-  return out;
 }
 
 void System::Finish() {

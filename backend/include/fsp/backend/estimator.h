@@ -46,6 +46,7 @@
 #include "fsp/backend/fsp_factor.h"
 #include "fsp/backend/imu_preintegration.h"
 #include "fsp/backend/motion_init.h"
+#include "fsp/backend/point_init.h"
 #include "fsp/backend/single_view_init.h"
 #include "fsp/backend/state.h"
 #include "fsp/backend/static_init.h"
@@ -276,6 +277,10 @@ struct EstimatorOptions {
   // prior σ [m/s].
   MotionInitOptions motion_init;
   double motion_init_velocity_sigma = 0.1;
+  // ...and from the tracked points (point_init.h: structure from motion aligned with the IMU),
+  // when the frames carry points (AddFrame's POINTS): a hand-held start without a whole rectangle.
+  // Its first state's velocity gets the same prior σ, its gyroscope bias prior_gyro_bias_sigma.
+  PointInitOptions point_init;
   // Prior on the initial biases: the static start gives the gyro bias well; the accelerometer bias
   // is only known to be small.
   double prior_gyro_bias_sigma = 0.01;  // [rad/s]
@@ -361,9 +366,30 @@ struct EstimatorSummary {
   std::string init_failure;     // why the initialisation refused (empty when fine)
   bool init_in_motion = false;  // initialised in motion (MotionInitOptions), not from a still start
   double init_t_s = 0.0;        // time of the first state since the first frame [s]
-  int frames = 0;               // frames given to AddFrame
-  int keyframes = 0;            // keyframes created
-  int observations_used = 0;    // observations of objects in the map (they become factors)
+  // Which initialisation started the estimator: "static", "rectangle" (motion_init.h), "points"
+  // (point_init.h); empty before.
+  std::string init_method;
+  // What it estimated: the gyroscope bias [rad/s], the first state's speed [m/s], | |g| − gravity |
+  // before gravity's magnitude was fixed [m/s^2] (in motion), and the scale: the metric width of
+  // the reference object (rectangle) or metres per unit of the structure from motion (points).
+  Vec3 init_gyro_bias = Vec3::Zero();
+  Vec3 init_acc_bias = Vec3::Zero();  // [m/s^2]; estimated by the points' init on request, else 0
+  double init_speed = 0.0;
+  double init_gravity_error = 0.0;
+  double init_scale = 0.0;
+  // Points: the metric distance between the first and last keyframe of the structure from motion
+  // [m] and the time of the last [s since the first frame] (compare with a reference trajectory).
+  double init_baseline_m = 0.0;
+  double init_baseline_end_t_s = 0.0;
+  // Attempts in motion that refused before the one that succeeded (or before giving up), and the
+  // last refusal's reason.
+  int init_attempts_refused = 0;
+  std::string init_last_refusal;
+  // The refusals by kind (their reason up to its first number or parenthesis) and count.
+  std::map<std::string, int> init_refusals;
+  int frames = 0;                // frames given to AddFrame
+  int keyframes = 0;             // keyframes created
+  int observations_used = 0;     // observations of objects in the map (they become factors)
   int observations_partial = 0;  // ...of them, objects partly in view (some corners not seen)
   int partial_dropped = 0;  // partial observations of objects the window did not track (unused)
   int observations_rejected = 0;  // first views whose single-view initialisation failed
@@ -449,8 +475,9 @@ class Estimator {
   // corners it shows, ObjectObservation::seen: backend/README.md, "Objects partly in view"; one
   // without any is ignored). Frames in time order, after the IMU that covers them. Returns false
   // while the estimator is not initialised (the frame is buffered until the static interval is
-  // complete) or after the initialisation refused (summary().init_failure).
-  // POINTS: the frame's tracked point features (PointOptions), by id, undistorted pixels.
+  // complete) or after the initialisation refused (summary().init_failure). POINTS: the frame's
+  // tracked point features (undistorted pixels, by id): landmarks in the window (PointOptions) and
+  // the initialisation in motion from points (EstimatorOptions::point_init).
   bool AddFrame(int64_t t_ns, const std::vector<ObjectObservation>& observations,
                 const std::vector<PointObservation>& points = {});
   // Ends the sequence: final window solve, or the full batch solve.

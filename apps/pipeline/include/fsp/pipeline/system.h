@@ -63,7 +63,8 @@ struct BackendState {
 struct FrameOutput {
   std::vector<ObjectObservation> observations;  // what the back end was given
   // The front end's point features (frontend.points.enabled; AddFrame only), what the back end was
-  // given beside the observations (estimator.points).
+  // given beside the observations: landmarks in the window (estimator.points) and the
+  // initialisation in motion from points (estimator.point_init).
   std::vector<PointObservation> points;
   frontend::StageTimes frontend_times;  // track, detect, associate (empty for AddObservations)
   double frontend_ms = 0.0;
@@ -106,6 +107,8 @@ class System {
   const backend::EstimatorSummary& summary() const;
 
  private:
+  // The back end on OUT's observations and points; fills OUT's back-end fields.
+  void Back(int64_t t_ns, FrameOutput* out);
   std::unique_ptr<internal::Core> core_;
 };
 
