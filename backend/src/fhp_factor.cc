@@ -21,7 +21,6 @@ CornerPrediction PredictFhpCorners(const Mat3& K, const Rigid3& T_W_C, const Rig
 }
 
 namespace {
-using Mat27R = Eigen::Matrix<double, 2, 7, Eigen::RowMajor>;
 using Mat23R = Eigen::Matrix<double, 2, 3, Eigen::RowMajor>;
 }  // namespace
 
@@ -41,27 +40,12 @@ bool FhpFactor::Evaluate(double const* const* parameters, double* residuals,
   const double* c = parameters[2];
   const Vec3 a(c[0], c[1], 1.0);
   const double omega = std::exp(c[2]);
-  const bool want = jacobians != nullptr;
-  AnchoredPointJacobians Jh;
-  const Vec3 h = AnchoredHomogeneousPoint(T_W_Bc, T_W_Ba, T_B_C_, a, omega, want ? &Jh : nullptr);
-  if (!(h.z() > options_.min_h_z)) return false;
   Mat23 D;
-  const Vec2 z = ProjectHomogeneous(K_, h, want ? &D : nullptr);
-  const double inv_sigma = 1.0 / options_.sigma_px;
-  residuals[0] = (z.x() - obs_.x()) * inv_sigma;
-  residuals[1] = (z.y() - obs_.y()) * inv_sigma;
-  if (!want) return true;
-  D *= inv_sigma;
-  if (jacobians[0] != nullptr) {
-    Eigen::Map<Mat27R> J(jacobians[0]);
-    J.leftCols<3>() = D * Jh.d_p_cam;
-    J.rightCols<4>() = D * Jh.d_phi_cam * LeftRotationJacobianWrtQuat(T_W_Bc.rotation());
-  }
-  if (jacobians[1] != nullptr) {
-    Eigen::Map<Mat27R> J(jacobians[1]);
-    J.leftCols<3>() = D * Jh.d_p_anchor;
-    J.rightCols<4>() = D * Jh.d_phi_anchor * LeftRotationJacobianWrtQuat(T_W_Ba.rotation());
-  }
+  AnchoredPointJacobians Jh;
+  if (!AnchoredReprojection(T_W_Bc, T_W_Ba, T_B_C_, K_, a, omega, obs_, options_.sigma_px,
+                            options_.min_h_z, residuals, jacobians, &D, &Jh))
+    return false;
+  if (jacobians == nullptr) return true;
   if (jacobians[2] != nullptr) {
     Eigen::Map<Mat23R> J(jacobians[2]);
     J.leftCols<2>() = D * Jh.d_a.leftCols<2>();  // da/du = e_x, da/dv = e_y

@@ -95,6 +95,34 @@ Vec2 ProjectHomogeneous(const Mat3& K, const Vec3& h, Mat23* d_z_d_h) {
   return Vec2(p.x() * inv_z, p.y() * inv_z);
 }
 
+bool AnchoredReprojection(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor, const Rigid3& T_B_C,
+                          const Mat3& K, const Vec3& a, double omega, const Vec2& obs,
+                          double sigma_px, double min_h_z, double* residuals, double** jacobians,
+                          Mat23* D, AnchoredPointJacobians* Jh) {
+  using Mat27R = Eigen::Matrix<double, 2, 7, Eigen::RowMajor>;
+  const bool want = jacobians != nullptr;
+  const Vec3 h =
+      AnchoredHomogeneousPoint(T_W_Bcam, T_W_Banchor, T_B_C, a, omega, want ? Jh : nullptr);
+  if (!(h.z() > min_h_z)) return false;
+  const Vec2 z = ProjectHomogeneous(K, h, want ? D : nullptr);
+  const double inv_sigma = 1.0 / sigma_px;
+  residuals[0] = (z.x() - obs.x()) * inv_sigma;
+  residuals[1] = (z.y() - obs.y()) * inv_sigma;
+  if (!want) return true;
+  *D *= inv_sigma;
+  if (jacobians[0] != nullptr) {
+    Eigen::Map<Mat27R> J(jacobians[0]);
+    J.leftCols<3>() = *D * Jh->d_p_cam;
+    J.rightCols<4>() = *D * Jh->d_phi_cam * LeftRotationJacobianWrtQuat(T_W_Bcam.rotation());
+  }
+  if (jacobians[1] != nullptr) {
+    Eigen::Map<Mat27R> J(jacobians[1]);
+    J.leftCols<3>() = *D * Jh->d_p_anchor;
+    J.rightCols<4>() = *D * Jh->d_phi_anchor * LeftRotationJacobianWrtQuat(T_W_Banchor.rotation());
+  }
+  return true;
+}
+
 CornerPrediction PredictFspCorners(const Mat3& K, const Rigid3& T_W_C, const Rigid3& T_W_F,
                                    const FspLandmark& landmark) {
   // With T_B_C = identity the "body" poses are the camera poses.

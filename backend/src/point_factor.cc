@@ -18,10 +18,6 @@ PointPrediction PredictPoint(const Mat3& K, const Rigid3& T_W_C, const Rigid3& T
   return p;
 }
 
-namespace {
-using Mat27R = Eigen::Matrix<double, 2, 7, Eigen::RowMajor>;
-}  // namespace
-
 PointFactor::PointFactor(const Vec2& uv_px, const Vec3& bearing_F, const Mat3& K,
                          const Rigid3& T_B_C, const FspFactorOptions& options)
     : obs_(uv_px), a_(bearing_F), K_(K), T_B_C_(T_B_C), options_(options) {
@@ -38,27 +34,12 @@ bool PointFactor::Evaluate(double const* const* parameters, double* residuals,
   const Rigid3 T_W_Bc = PoseFromBlock(parameters[0]);
   const Rigid3 T_W_Ba = PoseFromBlock(parameters[1]);
   const double rho = parameters[2][0];
-  const bool want = jacobians != nullptr;
-  AnchoredPointJacobians Jh;
-  const Vec3 h = AnchoredHomogeneousPoint(T_W_Bc, T_W_Ba, T_B_C_, a_, rho, want ? &Jh : nullptr);
-  if (!(h.z() > options_.min_h_z)) return false;
   Mat23 D;
-  const Vec2 z = ProjectHomogeneous(K_, h, want ? &D : nullptr);
-  const double inv_sigma = 1.0 / options_.sigma_px;
-  residuals[0] = (z.x() - obs_.x()) * inv_sigma;
-  residuals[1] = (z.y() - obs_.y()) * inv_sigma;
-  if (!want) return true;
-  D *= inv_sigma;
-  if (jacobians[0] != nullptr) {
-    Eigen::Map<Mat27R> J(jacobians[0]);
-    J.leftCols<3>() = D * Jh.d_p_cam;
-    J.rightCols<4>() = D * Jh.d_phi_cam * LeftRotationJacobianWrtQuat(T_W_Bc.rotation());
-  }
-  if (jacobians[1] != nullptr) {
-    Eigen::Map<Mat27R> J(jacobians[1]);
-    J.leftCols<3>() = D * Jh.d_p_anchor;
-    J.rightCols<4>() = D * Jh.d_phi_anchor * LeftRotationJacobianWrtQuat(T_W_Ba.rotation());
-  }
+  AnchoredPointJacobians Jh;
+  if (!AnchoredReprojection(T_W_Bc, T_W_Ba, T_B_C_, K_, a_, rho, obs_, options_.sigma_px,
+                            options_.min_h_z, residuals, jacobians, &D, &Jh))
+    return false;
+  if (jacobians == nullptr) return true;
   if (jacobians[2] != nullptr) {
     Eigen::Map<Vec2> J(jacobians[2]);
     J = D * Jh.d_omega;

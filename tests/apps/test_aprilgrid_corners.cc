@@ -90,8 +90,7 @@ TEST(AprilGridCorners, ConvertedTracksAreAcceptedAndAStillStartAloneRefusesThem)
       (out.parent_path() / "still_only.yaml").string() + " --out " +
       (out.parent_path() / "run").string());
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_EQ(r.err.rfind("fsp: error: initialisation refused: too much motion", 0), 0u)
-      << r.err;
+  EXPECT_EQ(r.err.rfind("fsp: error: initialisation refused: too much motion", 0), 0u) << r.err;
   EXPECT_NE(r.err.find("(the start is not still)"), std::string::npos) << r.err;
 }
 

@@ -95,6 +95,16 @@ Vec3 AnchoredHomogeneousPoint(const AnchoredFrames& f, const Vec3& a, double ome
 // h. K must have last row (0, 0, 1) (zero skew allowed or not).
 Vec2 ProjectHomogeneous(const Mat3& K, const Vec3& h, Mat23* d_z_d_h = nullptr);
 
+// The whitened reprojection residual (π(K h) − OBS) / SIGMA_PX of an anchored point (h as above,
+// body poses T_W_Bcam and T_W_Banchor as stored in their 7-number blocks), with the two pose
+// blocks' 2x7 row-major Jacobians written into JACOBIANS[0] and [1] where requested. False when h
+// is not in front (h_z <= MIN_H_Z). When JACOBIANS is given, *D (whitened dz/dh) and *JH are set
+// for the caller's own landmark block. Shared by the FHP corner and the point factors.
+bool AnchoredReprojection(const Rigid3& T_W_Bcam, const Rigid3& T_W_Banchor, const Rigid3& T_B_C,
+                          const Mat3& K, const Vec3& a, double omega, const Vec2& obs,
+                          double sigma_px, double min_h_z, double* residuals, double** jacobians,
+                          Mat23* D, AnchoredPointJacobians* Jh);
+
 // Predicted corners of an FSP landmark in a camera (poses of the CAMERAS here, not bodies).
 struct CornerPrediction {
   Corners uv;                   // undistorted pixels
