@@ -123,6 +123,8 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
     follow.folder = request.source.input;
     follow.calib = request.source.calib;
     follow.imu = request.source.imu;
+    if (config.camera_time_offset_s)
+      follow.time_offset_ns = std::llround(*config.camera_time_offset_s * 1e9);
     follow.idle_s = request.idle_s;
     follow.poll_s = request.poll_s;
     follow.stop = request.stop;
@@ -131,6 +133,8 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   } else {
     SourceOptions source_options = request.source;
     source_options.decode_images = from_images;  // corners from a file need no pixels
+    if (config.camera_time_offset_s)
+      source_options.time_offset_ns = std::llround(*config.camera_time_offset_s * 1e9);
     // The gt-corners front end first: a missing observations_gt.csv is the likelier mistake and
     // its message the clearer. The corners front end needs the frame times.
     if (gt)

@@ -64,6 +64,8 @@ struct ImuNoiseOverrides {
 struct RunConfig {
   backend::EstimatorOptions estimator;
   ImuNoiseOverrides imu;
+  // Camera-IMU time offset replacing the calibration's (t_imu = t_cam + offset) [s].
+  std::optional<double> camera_time_offset_s;
   GtCornersOptions gt_corners;
   frontend::FrontEndOptions
       frontend;        // --frontend rect | apriltag (the detector kind comes from the flag)

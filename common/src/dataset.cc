@@ -130,6 +130,7 @@ void CheckTimeRange(const std::vector<int64_t>& frames, const std::vector<ImuSam
 
 std::unique_ptr<Source> Finish(InputKind kind, Calibration calib, internal::FrameList frames,
                                const std::string& imu_path, const SourceOptions& options) {
+  if (options.time_offset_ns) calib.time_offset_ns = *options.time_offset_ns;
   std::vector<ImuSample> imu = ReadImuCsv(imu_path);
   CheckTimeRange(frames.t_ns, imu, frames.decoder->Name(0), imu_path, calib);
   auto source = std::make_unique<RecordedSource>(kind, std::move(calib), std::move(frames),

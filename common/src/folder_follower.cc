@@ -336,6 +336,7 @@ FolderFollower::FolderFollower(const FollowOptions& options) : impl_(std::make_u
   if (!fs::is_regular_file(options.imu, ec))
     throw InputError(options.imu, 0, "IMU csv not found (it may be empty, but must exist)");
   impl_->calib = ReadCalibration(options.calib);
+  if (options.time_offset_ns) impl_->calib.time_offset_ns = *options.time_offset_ns;
   impl_->last_new = Clock::now();
 }
 

@@ -298,7 +298,7 @@ FrontEndResult FrontEnd::Process(const Frame& frame, const FramePrediction& pred
       BuildFlowPyramid(gray,
                        points ? std::max(options_.tracker.lk_window, options_.points.lk_window)
                               : options_.tracker.lk_window,
-                       points ? std::max(options_.tracker.lk_levels, options_.points.lk_levels)
+                       points ? std::max(options_.tracker.lk_levels, m.points->pyramid_levels())
                               : options_.tracker.lk_levels);
   Impl::FrameWork w(gray, pyramid, prediction, options_);
   const bool lost_now = m.TrackAll(&w);

@@ -49,6 +49,11 @@ TEST(RunConfig, DefaultYamlParsesToTheDefaultOptions) {
   EXPECT_EQ(parsed.estimator.init.width_tag_m, defaults.init.width_tag_m);
   EXPECT_EQ(parsed.gt_corners.pixel_sigma, 1.0);
   EXPECT_FALSE(parsed.imu.gyroscope_noise_density.has_value());
+  EXPECT_FALSE(parsed.camera_time_offset_s.has_value());
+  // A camera-IMU time offset set in a config (seconds; `fsp run` hands it to the source).
+  const RunConfig offset = ParseRunConfig("camera:\n  time_offset_s: -0.045\n", "offset.yaml");
+  ASSERT_TRUE(offset.camera_time_offset_s.has_value());
+  EXPECT_DOUBLE_EQ(*offset.camera_time_offset_s, -0.045);
 }
 
 // default.yaml holds the options a user may change, not every key: each key in it must be one the

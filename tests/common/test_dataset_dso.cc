@@ -51,6 +51,21 @@ void ReplaceLine(const fs::path& p, int line, const std::string& text) {
   test::WriteText(p, out);
 }
 
+// A time offset given with the source (the run config's camera.time_offset_s) replaces the
+// calibration's: the frames move by it, the IMU does not.
+TEST(DsoLayout, TimeOffsetOverrideMovesTheFrames) {
+  const fs::path dir = test::ScratchDir();
+  const std::vector<int64_t> t = test::MakeDso(dir);
+  SourceOptions o;
+  o.input = dir.string();
+  o.time_offset_ns = -45'000'000;
+  const auto src = OpenSource(o);
+  EXPECT_EQ(src->calibration().time_offset_ns, -45'000'000);
+  ASSERT_EQ(src->frame_times().size(), t.size());
+  for (size_t i = 0; i < t.size(); ++i) EXPECT_EQ(src->frame_times()[i], t[i] - 45'000'000);
+  EXPECT_EQ(src->imu().front().t_ns, t.front() - 20'000'000);
+}
+
 // Frames, IMU, K, T_B_C and the IMU noise of a DM-VIO-style folder.
 TEST(DsoLayout, ReadsFramesImuCameraAndCamchain) {
   const fs::path dir = test::ScratchDir();

@@ -217,9 +217,11 @@ TEST(PointTracker, GeometryCheckDropsPointsOffTheCameraMotion) {
       "[points] 12 patches moving 4 px per frame over 19 frames: tracked on them %d times with the "
       "2-point RANSAC, %d with the fundamental matrix, %d without a geometry check\n",
       with, with_f, without);
-  // Measured: 12 / 48 / 153. The fundamental matrix (7 degrees of freedom, one threshold) lets a
-  // patch moving near its epipolar line through more often than the known rotation does.
-  EXPECT_GE(without, 120);
+  // Measured: 8 / 30 / 114. The fundamental matrix (7 degrees of freedom, one threshold) lets a
+  // patch moving near its epipolar line through more often than the known rotation does (with
+  // its essential-matrix refit on the rotation's inliers). `without` >= 100: the patches do hold
+  // tracked points (a precondition of the test, not a bound).
+  EXPECT_GE(without, 100);
   EXPECT_LE(with, without / 6);
   EXPECT_LE(with_f, without / 2);
 }

@@ -57,6 +57,8 @@ struct SourceOptions {
       frame_times;  // optional: one t_ns per video frame (csv or plain), overrides the video clock
   bool decode_images =
       true;  // false: Next() yields frames with only timestamps and sources (fast scans)
+  // Replaces the calibration's camera-IMU time offset (t_imu = t_cam + offset) when set [ns].
+  std::optional<int64_t> time_offset_ns;
   bool Check(std::string* why) const;
 };
 

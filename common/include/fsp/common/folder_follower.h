@@ -38,13 +38,14 @@
 namespace fsp {
 
 struct FollowOptions {
-  std::string folder;       // the image folder
-  std::string calib;        // calibration file (required)
-  std::string imu;          // IMU csv (required; it must exist, it may be empty and grow)
-  double idle_s = 5.0;      // end after this long without a new image file
-  double poll_s = 0.02;     // polling period
-  double imu_wait_s = 1.0;  // how long a frame waits for the IMU to reach its time
-  double stale_s = 1.0;     // an image unchanged this long is taken even if its size never settled
+  std::string folder;  // the image folder
+  std::string calib;   // calibration file (required)
+  std::string imu;     // IMU csv (required; it must exist, it may be empty and grow)
+  std::optional<int64_t> time_offset_ns;  // replaces the calibration's when set [ns]
+  double idle_s = 5.0;                    // end after this long without a new image file
+  double poll_s = 0.02;                   // polling period
+  double imu_wait_s = 1.0;                // how long a frame waits for the IMU to reach its time
+  double stale_s = 1.0;  // an image unchanged this long is taken even if its size never settled
   const std::atomic<bool>* stop = nullptr;       // set from outside: end now
   std::function<void(const std::string&)> warn;  // warnings (may be empty)
   bool Check(std::string* why) const;
