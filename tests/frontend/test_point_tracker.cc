@@ -425,5 +425,53 @@ TEST(PointTracker, RefusesBadOptionsAndFrames) {
   EXPECT_TRUE(tracker.Track(cv::Mat(480, 640, CV_8U, cv::Scalar(128)), 0).points.empty());
 }
 
+// A 1280x720 camera is tracked on pyramid level 1 (640x360): its points are reported in
+// full-resolution pixels, and a view shifted by 7.5 px moves them by 7.5 px.
+TEST(PointTracker, WideImagesAreTrackedOnAPyramidLevelInFullResolutionPixels) {
+  PinholeRadtan camera;
+  camera.width = 1280;
+  camera.height = 720;
+  camera.fx = camera.fy = 900.0;
+  camera.cx = 639.5;
+  camera.cy = 359.5;
+  PointTracker tracker(camera);
+  EXPECT_EQ(tracker.working_level(), 1);
+  EXPECT_EQ(tracker.pyramid_levels(), 1 + PointTrackerOptions().lk_levels);
+  EXPECT_EQ(tracker.max_points(), 113);  // 150 scaled to 640x360
+  // Blobs and boxes on grey, blurred: corners at every scale the two levels see.
+  std::mt19937 rng(5);
+  cv::Mat canvas(800, 1400, CV_8U, cv::Scalar(128));
+  std::uniform_int_distribution<int> x(0, 1399), y(0, 799), side(8, 30), grey(20, 235);
+  for (int k = 0; k < 900; ++k)
+    cv::rectangle(canvas, cv::Rect(x(rng), y(rng), side(rng), side(rng)), cv::Scalar(grey(rng)),
+                  cv::FILLED);
+  cv::GaussianBlur(canvas, canvas, cv::Size(0, 0), 1.5);
+  const auto view = [&](double dx) {
+    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -40.0 - dx, 0, 1, -40.0);
+    cv::Mat f;
+    cv::warpAffine(canvas, f, shift, cv::Size(1280, 720), cv::INTER_LINEAR);
+    return f;
+  };
+  const PointTrackerResult first = tracker.Track(view(0.0), 0, Mat3::Identity());
+  const PointTrackerResult second = tracker.Track(view(7.5), 1, Mat3::Identity());
+  ASSERT_GE(first.points.size(), 100u);
+  std::map<int64_t, Vec2> before;
+  for (const PointObservation& p : first.points) before[p.point_id] = p.uv_undistorted;
+  std::vector<double> error;
+  for (size_t i = 0; i < second.points.size(); ++i) {
+    const PointObservation& p = second.points[i];
+    EXPECT_LT((second.points_px[i] - p.uv_undistorted).norm(), 1e-9);  // no distortion
+    EXPECT_TRUE(p.uv_undistorted.x() >= 0.0 && p.uv_undistorted.x() <= 1279.0 &&
+                p.uv_undistorted.y() >= 0.0 && p.uv_undistorted.y() <= 719.0);
+    if (!before.count(p.point_id)) continue;
+    error.push_back((p.uv_undistorted - before[p.point_id] - Vec2(-7.5, 0.0)).norm());
+  }
+  std::printf("[points] 1280x720 on level 1: %zu of %zu tracked, shift error median %.3f px\n",
+              error.size(), first.points.size(), error.empty() ? -1.0 : Median(error));
+  ASSERT_GE(error.size(), 90u);
+  EXPECT_LT(Median(error), 0.1);
+  EXPECT_LT(*std::max_element(error.begin(), error.end()), 0.6);
+}
+
 }  // namespace
 }  // namespace fsp::frontend
