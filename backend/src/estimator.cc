@@ -150,9 +150,14 @@ void Estimator::Impl::NoteFrame(int64_t t_ns, bool sees_objects, bool end) {
   if (blind >= f.blind_s) {
     ++summary.blind_stretches;
     summary.blind_max_s = std::max(summary.blind_max_s, blind);
-    std::snprintf(what, sizeof(what),
-                  "no object in view for %.2f s (since t=%.2f s): IMU dead reckoning%s", blind,
-                  NsToSeconds(*last_seen_t), end ? " to the end" : "");
+    // Live points in the window hold the trajectory without objects; without them it is the IMU
+    // alone.
+    const bool points_live = std::any_of(point_tracks.begin(), point_tracks.end(),
+                                         [](const auto& p) { return p.second.live; });
+    std::snprintf(what, sizeof(what), "no object in view for %.2f s (since t=%.2f s): %s%s", blind,
+                  NsToSeconds(*last_seen_t),
+                  points_live ? "held by the points and the IMU" : "IMU dead reckoning",
+                  end ? " to the end" : "");
     Warn(t_ns, what);
   }
   last_seen_t = t_ns;

@@ -1,7 +1,8 @@
 // `fsp run` on real recordings (skipped without the shared test data): EuRoC V1_01's still start
-// from pixels, with the CLI's defaults; what `fsp info` reads of the DM-VIO room walk (its first 60
-// s only; skipped without the recording).
+// from pixels, with the CLI's defaults; what `fsp info` reads of the DM-VIO room walk and a run on
+// it (its first 60 s only; skipped without the recording).
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -155,6 +156,52 @@ TEST(RealRecordings, DmvioWalkFirst60sAsFspInfoSeesIt) {
   EXPECT_EQ(j["camera"]["width"].get<int>(), 1280);
   EXPECT_DOUBLE_EQ(j["camera"]["fx"].get<double>(), 906.259765625);
   EXPECT_NEAR(j["imu"]["rate_hz"].get<double>(), 200.0, 2.0);
+}
+
+// The walk's first 60 s from pixels with its config (assets/config/dmvio_walk.yaml: IMU noise and
+// the -45 ms time offset measured on it), against the SfM reference (COLMAP, made metric with the
+// IMU; test data dmvio_walk_reference). Measured: initialised from points at 4.9 s, no divergence,
+// 2.2 m extent, Sim3 ATE 2.5 cm, but at 1.5x the reference's scale (Sim3 scale 0.664), which is
+// not solved: the targets (initialised within 3 s, plates within 10 % of their size) are missed
+// and not asserted here.
+TEST(RealRecordings, DmvioWalkFirst60sFromPixels) {
+  FSP_REQUIRE_DMVIO_WALK(walk);
+  FSP_REQUIRE_TEST_DATA(ref, "dmvio_walk_reference/sfm_metric_first60s.tum");
+  const fs::path dir = test::ScratchDir();
+  const std::string config = std::string(FSP_SOURCE_DIR) + "/assets/config/dmvio_walk.yaml";
+  const test::CommandResult r = test::RunFsp("run " + walk + " --config " + config +
+                                             " --until-s 60 --out " + (dir / "run").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  nlohmann::json run;
+  std::ifstream(dir / "run" / "run.json") >> run;
+  const nlohmann::json& e = run["estimator"];
+  EXPECT_TRUE(e["initialized"].get<bool>());
+  EXPECT_EQ(e["init_method"].get<std::string>(), "points");
+  EXPECT_LT(e["init_t_s"].get<double>(), 6.0);
+  EXPECT_EQ(run["faults"]["divergences"].get<int>(), 0);
+  EXPECT_EQ(run["faults"]["resets"].get<int>(), 0);
+  // It stays in the room: every axis of the trajectory's box under 6 m.
+  const std::vector<StampedPose> poses = ReadTum((dir / "run" / "trajectory.tum").string());
+  ASSERT_GT(poses.size(), 800u);
+  Vec3 lo = poses.front().T_W_B.translation(), hi = lo;
+  for (const StampedPose& p : poses) {
+    lo = lo.cwiseMin(p.T_W_B.translation());
+    hi = hi.cwiseMax(p.T_W_B.translation());
+  }
+  EXPECT_LT((hi - lo).maxCoeff(), 6.0);
+  // Shape against the reference (its times are the camera's: the estimate's plus 45 ms).
+  const test::CommandResult ev =
+      test::RunFsp("eval --gt " + ref + " --est " + (dir / "run").string() +
+                   " --align sim3 --t-offset 0.045 --out " + (dir / "metrics.json").string());
+  ASSERT_EQ(ev.exit_code, 0) << ev.err;
+  nlohmann::json m;
+  std::ifstream(dir / "metrics.json") >> m;
+  const double ate = m["trajectory"]["ate_rmse_m"].get<double>();
+  const double scale = m["trajectory"]["scale"].get<double>();
+  std::printf("[dmvio] initialised at %.2f s, Sim3 ATE %.2f cm over %d pairs, scale %.3f\n",
+              e["init_t_s"].get<double>(), 100.0 * ate, m["trajectory"]["pairs"].get<int>(), scale);
+  EXPECT_GT(m["trajectory"]["pairs"].get<int>(), 300);
+  EXPECT_LT(ate, 0.05);
 }
 
 }  // namespace
