@@ -233,7 +233,6 @@ bool PointTracker::Impl::Geometry(const std::vector<Vec2>& und1,
     };
     // The pure rotation first (a camera that does not translate: every hypothesis fits).
     best_count = score(Vec3::Zero(), &best);
-    Vec3 best_t = Vec3::Zero();
     update_needed(best_count);
     std::seed_seq seq{o.seed, static_cast<uint32_t>(frame_index)};
     std::mt19937 rng(seq);
@@ -248,7 +247,6 @@ bool PointTracker::Impl::Geometry(const std::vector<Vec2>& und1,
       if (count > best_count) {
         best_count = count;
         best = in;
-        best_t = t;
         update_needed(count);
       }
     }
