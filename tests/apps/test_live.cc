@@ -356,7 +356,9 @@ TEST(Live, FolderDeletedWhileFollowed) {
   test::CommandResult r;
   std::thread fsp([&] { r = test::RunFsp(FollowArgs(folder, imu, out, 10.0)); });
   driver.Write(0, 80, std::chrono::milliseconds(10));
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  // Long enough for a slow build to have taken frames (under the sanitizers 300 ms was not: no
+  // frame processed); the run then waits for more (idle 10 s) when the folder goes.
+  std::this_thread::sleep_for(std::chrono::seconds(2));
   fs::remove_all(folder);
   fsp.join();
   EXPECT_EQ(r.exit_code, 3) << r.err;
