@@ -118,13 +118,16 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   std::unique_ptr<Source> source;
   std::unique_ptr<FolderFollower> follower;
   std::unique_ptr<CornerFileFrontend> corner_file;
+  // camera.time_offset_s replaces the calibration's offset in either.
+  std::optional<int64_t> time_offset_ns;
+  if (config.camera_time_offset_s)
+    time_offset_ns = std::llround(*config.camera_time_offset_s * 1e9);
   if (request.follow) {
     FollowOptions follow;
     follow.folder = request.source.input;
     follow.calib = request.source.calib;
     follow.imu = request.source.imu;
-    if (config.camera_time_offset_s)
-      follow.time_offset_ns = std::llround(*config.camera_time_offset_s * 1e9);
+    follow.time_offset_ns = time_offset_ns;
     follow.idle_s = request.idle_s;
     follow.poll_s = request.poll_s;
     follow.stop = request.stop;
@@ -133,8 +136,7 @@ RunReport RunPipeline(const RunRequest& request, const RunConfig& config) {
   } else {
     SourceOptions source_options = request.source;
     source_options.decode_images = from_images;  // corners from a file need no pixels
-    if (config.camera_time_offset_s)
-      source_options.time_offset_ns = std::llround(*config.camera_time_offset_s * 1e9);
+    source_options.time_offset_ns = time_offset_ns;
     // The gt-corners front end first: a missing observations_gt.csv is the likelier mistake and
     // its message the clearer. The corners front end needs the frame times.
     if (gt)

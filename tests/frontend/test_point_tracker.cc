@@ -428,13 +428,7 @@ TEST(PointTracker, RefusesBadOptionsAndFrames) {
 // A 1280x720 camera is tracked on pyramid level 1 (640x360): its points are reported in
 // full-resolution pixels, and a view shifted by 7.5 px moves them by 7.5 px.
 TEST(PointTracker, WideImagesAreTrackedOnAPyramidLevelInFullResolutionPixels) {
-  PinholeRadtan camera;
-  camera.width = 1280;
-  camera.height = 720;
-  camera.fx = camera.fy = 900.0;
-  camera.cx = 639.5;
-  camera.cy = 359.5;
-  PointTracker tracker(camera);
+  PointTracker tracker(test::PinholeCamera(1280, 720, 900.0, 639.5, 359.5));
   EXPECT_EQ(tracker.working_level(), 1);
   EXPECT_EQ(tracker.pyramid_levels(), 1 + PointTrackerOptions().lk_levels);
   EXPECT_EQ(tracker.max_points(), 113);  // 150 scaled to 640x360
