@@ -159,11 +159,17 @@ TEST(RealRecordings, DmvioWalkFirst60sAsFspInfoSeesIt) {
 }
 
 // The walk's first 60 s from pixels with its config (assets/config/dmvio_walk.yaml: IMU noise and
-// the -45 ms time offset measured on it), against the SfM reference (COLMAP, made metric with the
-// IMU; test data dmvio_walk_reference). Measured: initialised from points at 4.9 s, no divergence,
-// 2.2 m extent, Sim3 ATE 2.5 cm, but at 1.5x the reference's scale (Sim3 scale 0.664), which is
-// not solved: the targets (initialised within 3 s, plates within 10 % of their size) are missed
-// and not asserted here.
+// the -45 ms time offset measured on it), against the SfM reference (test data
+// dmvio_walk_reference). The reference is not metric, whatever its README says: the walk's square
+// 86 mm socket plate (left of the room door, frames 438-648), its corners fitted to its edges in 39
+// frames and triangulated with the reference's poses (1.2 px RMS), measures 0.0604 x 0.0635 units,
+// so one unit is kReferenceMetres (+-0.05: one pixel of edge placement on a 28 px plate); the
+// accelerometer fitted to the reference's positions (+-0.6 s quadratic fits, its README's method)
+// gives 1.34. Measured: initialised from points at 4.9 s, no divergence, 2.2 m extent, Sim3 ATE
+// 2.5 cm (units of the reference), lengths 9 % above the plate's. The 3 s start is missed and not
+// asserted here.
+constexpr double kReferenceMetres = 1.39;
+
 TEST(RealRecordings, DmvioWalkFirst60sFromPixels) {
   FSP_REQUIRE_DMVIO_WALK(walk);
   FSP_REQUIRE_TEST_DATA(ref, "dmvio_walk_reference/sfm_metric_first60s.tum");
@@ -202,6 +208,11 @@ TEST(RealRecordings, DmvioWalkFirst60sFromPixels) {
               e["init_t_s"].get<double>(), 100.0 * ate, m["trajectory"]["pairs"].get<int>(), scale);
   EXPECT_GT(m["trajectory"]["pairs"].get<int>(), 300);
   EXPECT_LT(ate, 0.05);
+  // Metric scale: the estimate's lengths over the plate's metres, within 10 %.
+  const double metric_ratio = 1.0 / (kReferenceMetres * scale);
+  std::printf("[dmvio] lengths %.3f x the metric ones (reference unit = %.2f m)\n", metric_ratio,
+              kReferenceMetres);
+  EXPECT_NEAR(metric_ratio, 1.0, 0.10);
 }
 
 }  // namespace

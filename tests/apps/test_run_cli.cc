@@ -98,7 +98,7 @@ TEST(RunCli, BadConfig) {
 TEST(RunCli, PrintConfigShowsTheDefaults) {
   const test::CommandResult r = test::RunFsp("run --print-config");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("  window_size: 30\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("  window_size: 45\n"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("    pixel_sigma: 1.0\n"), std::string::npos) << r.out;
 }
 

@@ -226,8 +226,10 @@ struct EstimatorOptions {
   EstimatorMode mode = EstimatorMode::kWindow;
   LandmarkType landmarks = LandmarkType::kFsp;
   // Keyframes in the sliding window. Longer: more parallax for inverse depth and better scale, more
-  // CPU per frame (roughly linear). 30 since stop 27 (20 before; backend/README.md, "Schedule").
-  int window_size = 30;
+  // CPU per frame (roughly linear). 45 (4.5 s at keyframe_interval_s 0.1): a handheld walk's slow
+  // motion needs that long to hold the metric scale on points alone (backend/README.md, "Window
+  // length").
+  int window_size = 45;
   // Window mode: a frame becomes a keyframe when this much time passed since the last keyframe, or
   // when it sees an object that is new (or back after leaving the window) [s]. Other frames are
   // solved with the window (their pose is reported) and then dropped. Longer: the window spans more
