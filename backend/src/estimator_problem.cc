@@ -183,7 +183,7 @@ std::string Estimator::Impl::Diverged(const ceres::Solver::Summary& s, const Sna
                                       const Keyframes& kfs) const {
   const FaultOptions& f = options.faults;
   if (s.termination_type == ceres::FAILURE || !std::isfinite(s.final_cost))
-    return "the solver failed";
+    return "the solver failed: " + s.message;
   char buf[128];
   for (size_t k = 0; k < before.states.size(); ++k) {
     const KeyframeState& st = kfs[before.begin + k]->state;

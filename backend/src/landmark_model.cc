@@ -15,14 +15,20 @@ namespace fsp::backend::internal {
 
 namespace {
 
-// Keeps an inverse depth ω = exp(block[i]) within [1/max_depth, 1/min_depth]: an object with no
-// parallax yet (hover, far away) must not drift to infinity and drag the trajectory with it. The
-// current value is clamped into the box first (Ceres requires a feasible start).
+// Moves log ω = block[i] into the depth box [1/max_depth, 1/min_depth] (Ceres requires a feasible
+// start). AddObservationOf does it before its cheirality check: clamped after it, a landmark
+// outside the box could go behind a camera whose factor was already added, and the solve then
+// failed at its first evaluation (the hall's FHP global solves at 50 s with a 45-keyframe window).
+void ClampLogOmega(double* block, int i, const LandmarkContext& c) {
+  block[i] = std::clamp(block[i], -std::log(c.max_depth_m), -std::log(c.min_depth_m));
+}
+
+// Keeps an inverse depth ω = exp(block[i]) within the box in the solve: an object with no parallax
+// yet (hover, far away) must not drift to infinity and drag the trajectory with it.
 void BoundLogOmega(ceres::Problem* problem, double* block, int i, const LandmarkContext& c) {
-  const double lo = -std::log(c.max_depth_m), hi = -std::log(c.min_depth_m);
-  block[i] = std::clamp(block[i], lo, hi);
-  problem->SetParameterLowerBound(block, i, lo);
-  problem->SetParameterUpperBound(block, i, hi);
+  ClampLogOmega(block, i, c);
+  problem->SetParameterLowerBound(block, i, -std::log(c.max_depth_m));
+  problem->SetParameterUpperBound(block, i, -std::log(c.min_depth_m));
 }
 
 bool InsideDepthBox(double log_omega, double min_depth_m, double max_depth_m) {
@@ -35,6 +41,7 @@ bool InsideDepthBox(double log_omega, double min_depth_m, double max_depth_m) {
 bool AddObservationOf(FspLandmark& l, ceres::Problem* problem, const Corners& corners,
                       const CornerMask& seen, double* camera_pose, double* anchor_pose,
                       const Rigid3& T_W_C, const Rigid3& T_W_F, const LandmarkContext& c) {
+  ClampLogOmega(l.x, kFspLogOmega, c);
   if (!PredictFspCorners(c.K, T_W_C, T_W_F, l).in_front) return false;
   ceres::LossFunction* loss = MakeRobustLoss(c.robust, 2 * CountSeen(seen)).release();
   if (camera_pose == anchor_pose) {
@@ -110,6 +117,7 @@ double ScaleCovarianceOf(const FspLandmark& a, const FspLandmark& b,
 bool AddObservationOf(FhpLandmark& l, ceres::Problem* problem, const Corners& corners,
                       const CornerMask& seen, double* camera_pose, double* anchor_pose,
                       const Rigid3& T_W_C, const Rigid3& T_W_F, const LandmarkContext& c) {
+  for (int j = 0; j < 4; ++j) ClampLogOmega(l.corner[j], 2, c);
   if (!PredictFhpCorners(c.K, T_W_C, T_W_F, l).in_front) return false;
   for (int j = 0; j < 4; ++j) {
     if (!seen[j]) continue;

@@ -191,6 +191,52 @@ TEST(LandmarkModel, DepthOutsideTheBoxIsClampedOntoIt) {
   }
 }
 
+// A landmark beyond the depth box is clamped onto it before the cheirality check: a camera between
+// the clamped rectangle and the true one sees the true corners in front of it but the clamped ones
+// behind, so its view is refused and the problem stays evaluable. Checked after the clamp instead,
+// the view was added, and the solve failed at its first evaluation (the hall's FHP global solves).
+TEST(LandmarkModel, ViewBehindTheClampedDepthIsRefused) {
+  std::mt19937 rng(11);
+  ceres::EigenQuaternionManifold quat;
+  LandmarkContext c = Context(&quat);
+  const Scene s = MakeScene(rng);
+  double nearest = 1e9, furthest = 0.0;
+  for (int j = 0; j < 4; ++j) {
+    const double z = (s.T_W_F.Inverse() * s.object.Corner(j)).z();
+    nearest = std::min(nearest, z);
+    furthest = std::max(furthest, z);
+  }
+  c.max_depth_m = 0.5 * nearest;  // every corner too far
+  c.min_depth_m = 0.5 * c.max_depth_m;
+  // The camera 0.75 x nearest ahead of the anchor along its axis: the true corners lie in front of
+  // it; clamped, FHP's corners sit at 0.5 x nearest and FSP's rectangle shrinks towards the anchor
+  // by max_depth / depth of s1, both behind it.
+  const Vec3 ahead = s.T_W_F.R() * Vec3(0.0, 0.0, 0.75 * nearest);
+  const Rigid3 T_W_C(s.T_W_F.R(), s.T_W_F.translation() + ahead);
+  const double s1_depth = (s.T_W_F.Inverse() * s.object.Corner(0)).z();
+  ASSERT_LT(furthest * c.max_depth_m / s1_depth, 0.75 * nearest);
+  double cam_pose[7], anchor_pose[7];
+  PoseToBlock(T_W_C * c.T_B_C.Inverse(), cam_pose);
+  PoseToBlock(s.T_W_F * c.T_B_C.Inverse(), anchor_pose);
+  const Corners z = test::ProjectCorners(c.K, T_W_C, s.object);
+  for (const LandmarkType type : {LandmarkType::kFsp, LandmarkType::kFhp}) {
+    Landmark l = Landmark::FromSingleView(type, s.truth);
+    ceres::Problem::Options po;
+    po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(po);
+    EXPECT_FALSE(
+        l.AddObservation(&problem, z, kAllCorners, cam_pose, anchor_pose, T_W_C, s.T_W_F, c))
+        << static_cast<int>(type);
+    EXPECT_EQ(problem.NumResidualBlocks(), 0);
+    // The anchor's view goes in (on the clamped depth) and the problem evaluates.
+    ASSERT_TRUE(l.AddObservation(&problem, test::ProjectCorners(c.K, s.T_W_F, s.object),
+                                 kAllCorners, anchor_pose, anchor_pose, s.T_W_F, s.T_W_F, c));
+    double cost = -1.0;
+    EXPECT_TRUE(
+        problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, nullptr));
+  }
+}
+
 TEST(LandmarkModel, FspSizeSigmaMatchesTheLandmarksOwn) {
   std::mt19937 rng(11);
   ceres::EigenQuaternionManifold quat;
