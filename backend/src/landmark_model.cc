@@ -24,9 +24,9 @@ void ClampLogOmega(double* block, int i, const LandmarkContext& c) {
 }
 
 // Keeps an inverse depth ω = exp(block[i]) within the box in the solve: an object with no parallax
-// yet (hover, far away) must not drift to infinity and drag the trajectory with it.
+// yet (hover, far away) must not drift to infinity and drag the trajectory with it. The value is
+// already inside (AddObservationOf clamped it).
 void BoundLogOmega(ceres::Problem* problem, double* block, int i, const LandmarkContext& c) {
-  ClampLogOmega(block, i, c);
   problem->SetParameterLowerBound(block, i, -std::log(c.max_depth_m));
   problem->SetParameterUpperBound(block, i, -std::log(c.min_depth_m));
 }

@@ -70,19 +70,23 @@ const fs::path& Sequence() {
   return dir.path();
 }
 
-// A scene of assets/scenes rendered once per test process.
-const fs::path& RenderedClip(const std::string& name) {
+// A scene of assets/scenes rendered once per test process (SEED >= 0 and DURATION_S > 0 replace
+// the scene's, as `fsp render --seed --duration` does).
+const fs::path& RenderedClip(const std::string& name, int seed = -1, double duration_s = 0.0) {
   static std::map<std::string, std::unique_ptr<test::ProcessFolder>> clips;
-  std::unique_ptr<test::ProcessFolder>& clip = clips[name];
+  const std::string key = name + "_s" + std::to_string(seed) + "_" + std::to_string(duration_s);
+  std::unique_ptr<test::ProcessFolder>& clip = clips[key];
   if (!clip) {
-    clip = std::make_unique<test::ProcessFolder>(name, [&name](const fs::path& d) {
+    clip = std::make_unique<test::ProcessFolder>(key, [&](const fs::path& d) {
+      sim::Scene scene =
+          sim::LoadScene(std::string(FSP_SOURCE_DIR) + "/assets/scenes/" + name + ".yaml");
+      if (seed >= 0) scene.seed = static_cast<uint32_t>(seed);
+      if (duration_s > 0.0) scene.duration_s = duration_s;
       sim::SequenceOptions options;
       options.video = false;
       options.top_view = false;
       options.progress = false;
-      sim::WriteSequence(
-          sim::LoadScene(std::string(FSP_SOURCE_DIR) + "/assets/scenes/" + name + ".yaml"),
-          d.string(), options);
+      sim::WriteSequence(scene, d.string(), options);
     });
   }
   return clip->path();
@@ -194,18 +198,8 @@ TEST(PixelsEndToEnd, TrackingClipMotionBlur) {
 // drifted, the speed grew to 3.5 m/s and the ATE reached 4.4 m (backend/README.md, "Window
 // length").
 TEST(PixelsEndToEnd, HandheldWalkHoldsThroughAStretchOfPointsOnly) {
-  static const test::ProcessFolder walk("handheld_walk_s2_20s", [](const fs::path& d) {
-    sim::Scene scene =
-        sim::LoadScene(std::string(FSP_SOURCE_DIR) + "/assets/scenes/handheld_walk.yaml");
-    scene.seed = 2;
-    scene.duration_s = 20.0;
-    sim::SequenceOptions options;
-    options.video = false;
-    options.top_view = false;
-    options.progress = false;
-    sim::WriteSequence(scene, d.string(), options);
-  });
-  const RunResult r = RunAndEvaluate(walk.path().string(), test::ScratchDir() / "run", walk.path());
+  const fs::path walk = RenderedClip("handheld_walk", 2, 20.0);
+  const RunResult r = RunAndEvaluate(walk.string(), test::ScratchDir() / "run", walk);
   ASSERT_TRUE(r.metrics.trajectory.has_value());
   Print("handheld walk s2 20 s", r);
   EXPECT_EQ(r.run["faults"]["divergences"].get<int>(), 0);

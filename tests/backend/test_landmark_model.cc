@@ -47,6 +47,24 @@ LandmarkContext Context(ceres::Manifold* quaternion_manifold) {
   return c;
 }
 
+// A problem that leaves the manifolds to the test (they live on its stack).
+ceres::Problem::Options KeepManifolds() {
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  return po;
+}
+
+// The nearest and furthest corner depth in the anchor camera.
+std::pair<double, double> CornerDepthRange(const Scene& s) {
+  double nearest = 1e9, furthest = 0.0;
+  for (int j = 0; j < 4; ++j) {
+    const double z = (s.T_W_F.Inverse() * s.object.Corner(j)).z();
+    nearest = std::min(nearest, z);
+    furthest = std::max(furthest, z);
+  }
+  return {nearest, furthest};
+}
+
 double MaxCornerDistancePx(const Corners& a, const Corners& b) {
   double d = 0.0;
   for (int j = 0; j < 4; ++j) d = std::max(d, (a[j] - b[j]).norm());
@@ -129,9 +147,7 @@ TEST(LandmarkModel, ObservationAddsBlocksFactorsAndDepthBounds) {
   for (const Expected e :
        {Expected{LandmarkType::kFsp, 1, 2, 1}, Expected{LandmarkType::kFhp, 4, 4, 1}}) {
     Landmark l = Landmark::FromSingleView(e.type, s.truth);
-    ceres::Problem::Options po;
-    po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    ceres::Problem problem(po);
+    ceres::Problem problem(KeepManifolds());
     EXPECT_FALSE(l.InProblem(problem));
     l.AddWidthPrior(&problem, s.object.width, c);
     EXPECT_EQ(problem.NumResidualBlocks(), 0);  // not in the problem yet
@@ -173,16 +189,12 @@ TEST(LandmarkModel, DepthOutsideTheBoxIsClampedOntoIt) {
   double anchor_pose[7];
   PoseToBlock(s.T_W_F * c.T_B_C.Inverse(), anchor_pose);
   const Corners z = test::ProjectCorners(c.K, s.T_W_F, s.object);
-  double nearest = 1e9;
-  for (int j = 0; j < 4; ++j)
-    nearest = std::min(nearest, (s.T_W_F.Inverse() * s.object.Corner(j)).z());
+  const double nearest = CornerDepthRange(s).first;
   c.max_depth_m = 0.5 * nearest;  // every corner too far
   c.min_depth_m = 0.5 * c.max_depth_m;
   for (const LandmarkType type : {LandmarkType::kFsp, LandmarkType::kFhp}) {
     Landmark l = Landmark::FromSingleView(type, s.truth);
-    ceres::Problem::Options po;
-    po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    ceres::Problem problem(po);
+    ceres::Problem problem(KeepManifolds());
     ASSERT_TRUE(
         l.AddObservation(&problem, z, kAllCorners, anchor_pose, anchor_pose, s.T_W_F, s.T_W_F, c));
     // On the far bound (not strictly inside), and the depth box no longer includes the truth.
@@ -200,12 +212,7 @@ TEST(LandmarkModel, ViewBehindTheClampedDepthIsRefused) {
   ceres::EigenQuaternionManifold quat;
   LandmarkContext c = Context(&quat);
   const Scene s = MakeScene(rng);
-  double nearest = 1e9, furthest = 0.0;
-  for (int j = 0; j < 4; ++j) {
-    const double z = (s.T_W_F.Inverse() * s.object.Corner(j)).z();
-    nearest = std::min(nearest, z);
-    furthest = std::max(furthest, z);
-  }
+  const auto [nearest, furthest] = CornerDepthRange(s);
   c.max_depth_m = 0.5 * nearest;  // every corner too far
   c.min_depth_m = 0.5 * c.max_depth_m;
   // The camera 0.75 x nearest ahead of the anchor along its axis: the true corners lie in front of
@@ -221,9 +228,7 @@ TEST(LandmarkModel, ViewBehindTheClampedDepthIsRefused) {
   const Corners z = test::ProjectCorners(c.K, T_W_C, s.object);
   for (const LandmarkType type : {LandmarkType::kFsp, LandmarkType::kFhp}) {
     Landmark l = Landmark::FromSingleView(type, s.truth);
-    ceres::Problem::Options po;
-    po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-    ceres::Problem problem(po);
+    ceres::Problem problem(KeepManifolds());
     EXPECT_FALSE(
         l.AddObservation(&problem, z, kAllCorners, cam_pose, anchor_pose, T_W_C, s.T_W_F, c))
         << static_cast<int>(type);
@@ -243,9 +248,7 @@ TEST(LandmarkModel, FspSizeSigmaMatchesTheLandmarksOwn) {
   const LandmarkContext c = Context(&quat);
   const Scene s = MakeScene(rng);
   Landmark l = Landmark::FromSingleView(LandmarkType::kFsp, s.truth);
-  ceres::Problem::Options po;
-  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(po);
+  ceres::Problem problem(KeepManifolds());
   std::vector<std::array<double, 7>> poses(s.cameras.size() + 1);
   PoseToBlock(s.T_W_F * c.T_B_C.Inverse(), poses[0].data());
   problem.AddParameterBlock(poses[0].data(), 7);
