@@ -67,9 +67,12 @@ struct Keyframe {
   std::vector<ObjectObservation> observations;
   // The frame's point features (PointOptions; empty when disabled or none given).
   std::vector<PointObservation> points;
-  // It saw no object, only live points: the global step (which holds no points) keeps its pose as
-  // the window left it (backend/README.md, "Points").
+  // It saw no object, only live points: the global step (which holds no points) ties it to its
+  // neighbours by the window's estimate (backend/README.md, "Points").
   bool points_only = false;
+  // The window's estimate of T_Bprev_B (the previous keyframe's body to this one's), taken when the
+  // previous keyframe left the window with points in use.
+  std::optional<Rigid3> window_motion;
   // Standing still since the previous keyframe (ZeroVelocityOptions): a zero-velocity prior.
   bool still = false;
 };

@@ -29,6 +29,8 @@ bool PointOptions::Check(std::string* why) const {
     os << "need 0 < min_depth_m < max_depth_m";
   else if (!(max_triangulation_px > 0.0) || !(outlier_px > 0.0))
     os << "max_triangulation_px and outlier_px must be > 0";
+  else if (!(global_sigma_m > 0.0) || !(global_sigma_per_m >= 0.0) || !(global_sigma_deg > 0.0))
+    os << "need global_sigma_m > 0, global_sigma_per_m >= 0, global_sigma_deg > 0";
   if (why) *why = os.str();
   return os.str().empty();
 }

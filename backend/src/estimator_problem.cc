@@ -319,10 +319,21 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs,
   }
   AddObjectPriors(problem, objs);
   // Keyframes that saw points alone through a stretch without objects of at least
-  // faults.blind_s keep their poses: without the points the global problem has nothing but the
-  // IMU there (the window's points fixed them; measured on the room without objects: a false
+  // faults.blind_s are tied to their neighbours by the window's relative poses: without the points
+  // the global problem has nothing but the IMU there (measured on the room without objects: a false
   // rectangle at 28 s started global solves that moved 28 s of dead reckoning by 5 m). Shorter
-  // stretches the IMU bridges between objects: held, the room's final ATE went 0.23 -> 0.63 cm.
+  // stretches the IMU bridges between objects (backend/README.md, "Points").
+  const PointOptions& po = options.points;
+  const auto tie = [&](Keyframe* a, Keyframe* b) {
+    if ((!is_free(a) && !is_free(b)) || b->gauge) return;
+    const Rigid3 T_a_b =
+        b->window_motion ? *b->window_motion : a->state.T_W_B().Inverse() * b->state.T_W_B();
+    problem->AddResidualBlock(
+        MakeRelativePosePrior(
+            T_a_b, po.global_sigma_m + po.global_sigma_per_m * T_a_b.translation().norm(),
+            po.global_sigma_deg * M_PI / 180.0),
+        nullptr, a->state.pose, b->state.pose);
+  };
   for (size_t i = free_from; i < kfs->size();) {
     if (!(*kfs)[i]->observations.empty()) {
       ++i;
@@ -333,8 +344,11 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs,
     const int64_t from = (*kfs)[i > 0 ? i - 1 : i]->state.t_ns;
     const int64_t to = (*kfs)[end < kfs->size() ? end : end - 1]->state.t_ns;
     if (NsToSeconds(to - from) >= options.faults.blind_s) {
-      for (size_t k = i; k < end; ++k)
-        if ((*kfs)[k]->points_only) problem->SetParameterBlockConstant((*kfs)[k]->state.pose);
+      for (size_t k = std::max<size_t>(i, 1); k < end; ++k)
+        if ((*kfs)[k]->points_only || (*kfs)[k - 1]->points_only)
+          tie((*kfs)[k - 1].get(), (*kfs)[k].get());
+      if (end < kfs->size() && (*kfs)[end - 1]->points_only)
+        tie((*kfs)[end - 1].get(), (*kfs)[end].get());
     }
     i = end;
   }

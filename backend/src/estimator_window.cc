@@ -139,6 +139,7 @@ void Estimator::Impl::MarginalizeOldest() {
   // Objects that could not be re-anchored (s1 behind every window camera) keep their anchor:
   // their information from the window leaves with the keyframe and they are frozen.
   if (!FixedBoundary()) MarginalizeIntoPrior(old, next);
+  if (UsePoints()) next->window_motion = old->state.T_W_B().Inverse() * next->state.T_W_B();
   ReanchorPointsOf(old);
   // The old keyframe's observations stay as factors with its pose held constant (past views).
   for (const ObjectObservation& o : old->observations) {

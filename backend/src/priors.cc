@@ -128,6 +128,43 @@ ceres::CostFunction* MakeImuGapPrior(double dt_s, const ImuGapPriorOptions& o) {
   return new ceres::AutoDiffCostFunction<ImuGapResidual, 15, 7, 9, 7, 9>(new ImuGapResidual(r));
 }
 
+namespace {
+
+struct RelativePoseResidual {
+  Vec3 t_ij;
+  Eigen::Vector4d q_ij_conj;  // (w, x, y, z)
+  double inv_p, inv_rot;
+
+  template <typename T>
+  bool operator()(const T* pose_i, const T* pose_j, T* r) const {
+    // Quaternions are stored (x, y, z, w); ceres/rotation.h wants (w, x, y, z).
+    const T qi_conj[4] = {pose_i[6], -pose_i[3], -pose_i[4], -pose_i[5]};
+    const T qj[4] = {pose_j[6], pose_j[3], pose_j[4], pose_j[5]};
+    const T dp[3] = {pose_j[0] - pose_i[0], pose_j[1] - pose_i[1], pose_j[2] - pose_i[2]};
+    T p_i_j[3];
+    ceres::UnitQuaternionRotatePoint(qi_conj, dp, p_i_j);
+    for (int k = 0; k < 3; ++k) r[k] = inv_p * (p_i_j[k] - t_ij[k]);
+    T q_i_j[4], err[4];
+    ceres::QuaternionProduct(qi_conj, qj, q_i_j);
+    const T meas[4] = {T(q_ij_conj[0]), T(q_ij_conj[1]), T(q_ij_conj[2]), T(q_ij_conj[3])};
+    ceres::QuaternionProduct(meas, q_i_j, err);
+    const T sign = err[0] < T(0) ? T(-2) : T(2);
+    for (int k = 0; k < 3; ++k) r[3 + k] = inv_rot * sign * err[1 + k];
+    return true;
+  }
+};
+
+}  // namespace
+
+ceres::CostFunction* MakeRelativePosePrior(const Rigid3& T_i_j, double sigma_p, double sigma_rot) {
+  FSP_CHECK(sigma_p > 0.0 && sigma_rot > 0.0);
+  const Quat q = T_i_j.rotation();
+  auto* r =
+      new RelativePoseResidual{T_i_j.translation(), Eigen::Vector4d(q.w(), -q.x(), -q.y(), -q.z()),
+                               1.0 / sigma_p, 1.0 / sigma_rot};
+  return new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 7, 7>(r);
+}
+
 ceres::CostFunction* MakeFhpLogWidthPrior(double width_prior_m, double sigma_log) {
   FSP_CHECK(width_prior_m > 0.0 && sigma_log > 0.0);
   return new ceres::AutoDiffCostFunction<FhpLogWidthResidual, 1, 3, 3, 3, 3>(

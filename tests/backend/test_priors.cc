@@ -124,5 +124,51 @@ TEST(Priors, ImuGapPriorResidualsFollowTheMotionModel) {
   EXPECT_LT(r.tail<6>().norm(), 1e-12);
 }
 
+TEST(Priors, RelativePosePriorJacobiansMatchNumeric) {
+  std::mt19937 rng(11);
+  PoseManifold pose_manifold;
+  for (int trial = 0; trial < 6; ++trial) {
+    KeyframeState a = RandomState(rng), b = RandomState(rng);
+    const Rigid3 T_a_b(ExpSO3(RandomVec(rng, 1.0)), RandomVec(rng, 2.0));
+    std::unique_ptr<ceres::CostFunction> prior(MakeRelativePosePrior(T_a_b, 0.01, 0.002));
+    EXPECT_TRUE(
+        test::ExpectJacobiansOk(*prior, {a.pose, b.pose}, {&pose_manifold, &pose_manifold}, 1e-5))
+        << "trial " << trial;
+  }
+}
+
+// The relative pose it was made from gives no residual, wherever the pair is in the world; a
+// translation error d in the first body's frame gives d / σ_p, a turn θ of the second body about
+// its own axis gives θ / σ_θ.
+TEST(Priors, RelativePosePriorResidualsAreInTheFirstBodysFrame) {
+  std::mt19937 rng(12);
+  const Rigid3 T_a_b(ExpSO3(Vec3(0.1, -0.2, 0.3)), Vec3(0.5, 0.1, -0.2));
+  const double sigma_p = 0.01, sigma_rot = 0.002;
+  std::unique_ptr<ceres::CostFunction> prior(MakeRelativePosePrior(T_a_b, sigma_p, sigma_rot));
+  const auto residual = [&](const Rigid3& T_W_a, const Rigid3& T_W_b) {
+    KeyframeState a, b;
+    a.SetT_W_B(T_W_a);
+    b.SetT_W_B(T_W_b);
+    Eigen::Matrix<double, 6, 1> r;
+    const double* params[] = {a.pose, b.pose};
+    EXPECT_TRUE(prior->Evaluate(params, r.data(), nullptr));
+    return r;
+  };
+  for (int trial = 0; trial < 4; ++trial) {
+    const Rigid3 T_W_a(ExpSO3(RandomVec(rng, 2.0)), RandomVec(rng, 5.0));
+    EXPECT_LT(residual(T_W_a, T_W_a * T_a_b).norm(), 1e-9);
+    const Vec3 d(0.003, -0.001, 0.002);
+    const Rigid3 T_W_b = T_W_a * T_a_b;
+    const Eigen::Matrix<double, 6, 1> rt =
+        residual(T_W_a, Rigid3(T_W_b.rotation(), T_W_b.translation() + T_W_a.rotation() * d));
+    EXPECT_LT((rt.head<3>() - d / sigma_p).norm(), 1e-6);
+    const Vec3 theta(0.0, 0.001, -0.002);
+    const Eigen::Matrix<double, 6, 1> rr =
+        residual(T_W_a, T_W_b * Rigid3(ExpSO3(theta), Vec3::Zero()));
+    EXPECT_LT(rr.head<3>().norm(), 1e-9);
+    EXPECT_LT((rr.tail<3>() - theta / sigma_rot).norm(), 1e-4);
+  }
+}
+
 }  // namespace
 }  // namespace fsp::backend

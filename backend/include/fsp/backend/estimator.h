@@ -219,6 +219,14 @@ struct PointOptions {
   // room without objects from pixels: re-anchored 47 cm ATE, dropped 7.3 cm; the room: 0.225 /
   // 0.224 cm.
   bool reanchor = false;
+  // The global step holds no points: a keyframe that saw points but no object, in a stretch
+  // without objects of at least faults.blind_s, is tied there to the keyframe before it (and the
+  // stretch's last to the keyframe after it) by the window's estimate of their relative pose, taken
+  // when the earlier of the two left the window: σ = global_sigma_m + global_sigma_per_m × their
+  // distance in position [m], global_sigma_deg in rotation [deg] (backend/README.md, "Points").
+  double global_sigma_m = 0.002;
+  double global_sigma_per_m = 0.01;
+  double global_sigma_deg = 0.1;
   bool Check(std::string* why) const;
 };
 

@@ -72,4 +72,12 @@ struct ImuGapPriorOptions {
 };
 ceres::CostFunction* MakeImuGapPrior(double dt_s, const ImuGapPriorOptions& options);
 
+// Ties two body poses to a relative pose T_i_j measured earlier (the window's estimate, where the
+// global step holds no points; backend/README.md, "Points"):
+//   r_p = (R_iᵀ (p_j − p_i) − t_ij) / σ_p,   r_θ = 2 vec(q_ijᵀ q_iᵀ q_j) / σ_θ   (q_ij's
+//   conjugate).
+// Blocks: pose_i[7], pose_j[7] (state.h). Automatic derivatives in the ambient parameters.
+// Requires positive sigmas (checked).
+ceres::CostFunction* MakeRelativePosePrior(const Rigid3& T_i_j, double sigma_p, double sigma_rot);
+
 }  // namespace fsp::backend
