@@ -1,11 +1,14 @@
-// fsp detect IMAGE... [--frontend rect|apriltag] [--calib FILE] [--out DIR]: corners of the
-// rectangles or AprilTags in single images, a detections.csv and a drawn PNG per image
-// (the README's "Commands").
+// fsp detect IMAGE... [--frontend rect|apriltag] [--calib FILE] [--labels FILE] [--out DIR]:
+// corners of the rectangles or AprilTags in single images, a detections.csv and a drawn PNG per
+// image (the README's "Commands"); with --labels, only the labelled images, scored against the
+// labels.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -16,7 +19,9 @@
 #include "commands.h"
 #include "fsp/common/calibration.h"
 #include "fsp/common/error.h"
+#include "fsp/common/median.h"
 #include "fsp/frontend/apriltag_detector.h"
+#include "fsp/frontend/detection_eval.h"
 #include "fsp/frontend/draw.h"
 #include "fsp/frontend/image_io.h"
 #include "fsp/frontend/rect_detector.h"
@@ -29,6 +34,7 @@ struct DetectArgs {
   std::vector<std::string> images;
   std::string frontend = "rect";
   std::string calib;
+  std::string labels;
   std::string out;
   // AprilTag options (family, sigma, decoding) as given; decimate and refine_edges are set per
   // image from the two below.
@@ -48,9 +54,38 @@ double StillImageDecimation(int long_side) {
   return std::max(1.0, std::ceil(long_side / 2000.0 - 1e-9));
 }
 
+// The label score as a table on stdout: per labelled class, then in total.
+void PrintLabelScore(const frontend::LabelScore& s) {
+  std::printf("\n%-10s %5s %5s %7s %5s %9s %18s\n", "class", "full", "found", "recall", "cut",
+              "cut found", "corner median [px]");
+  const auto row = [](const std::string& name, const frontend::LabelScore::PerClass& c) {
+    const double median = c.corner_err_px.empty() ? NAN : Median(c.corner_err_px);
+    std::printf("%-10s %5d %5d %6.1f%% %5d %9d %18.2f\n", name.c_str(), c.full, c.found,
+                c.full ? 100.0 * c.found / c.full : 100.0, c.cut, c.cut_found, median);
+  };
+  for (const auto& [name, c] : s.per_class) row(name, c);
+  row("total", s.Total());
+  std::printf(
+      "%d frames: %d detections (on ignored labels left out), %d on a labelled object: "
+      "precision %.1f %%, recall %.1f %%\n",
+      s.frames, s.detections, s.true_positives, 100.0 * s.Precision(), 100.0 * s.Recall());
+}
+
 void RunDetect(const DetectArgs& args) {
   std::optional<Calibration> calib;
-  if (!args.calib.empty()) calib = ReadCalibration(args.calib);
+  if (std::filesystem::path(args.calib).extension() == ".txt") {
+    calib.emplace();  // a DSO / DM-VIO camera.txt: the camera alone is all detection needs
+    calib->camera = ReadDsoCamera(args.calib);
+  } else if (!args.calib.empty()) {
+    calib = ReadCalibration(args.calib);
+  }
+  std::optional<frontend::FrameLabels> labels;
+  std::map<int64_t, const frontend::LabelledFrame*> labelled;
+  if (!args.labels.empty()) {
+    labels = frontend::ReadFrameLabels(args.labels);
+    for (const auto& f : labels->frames) labelled[f.t_ns] = &f;
+  }
+  frontend::LabelScore score;
   std::unique_ptr<frontend::RectDetector> rect;
   std::unique_ptr<frontend::AprilTagDetector> tags;
   frontend::AprilTagDetectorOptions tag_o = args.tag;
@@ -70,6 +105,17 @@ void RunDetect(const DetectArgs& args) {
     csv << "image,tag_id,class,u1,v1,u2,v2,u3,v3,u4,v4,score\n";
   }
   for (const std::string& path : args.images) {
+    // With labels: the images named <t_ns>.<ext> of a labelled frame only.
+    const frontend::LabelledFrame* frame = nullptr;
+    if (labels) {
+      const std::string stem = std::filesystem::path(path).stem().string();
+      char* end = nullptr;
+      const long long t_ns = std::strtoll(stem.c_str(), &end, 10);
+      const auto it = end && *end == '\0' && !stem.empty() ? labelled.find(t_ns) : labelled.end();
+      if (it == labelled.end()) continue;
+      frame = it->second;
+      labelled.erase(it);
+    }
     const cv::Mat gray = frontend::ReadGray8(path);
     const PinholeRadtan* cam = nullptr;
     if (calib) {
@@ -107,6 +153,11 @@ void RunDetect(const DetectArgs& args) {
       counts = "; " + std::to_string(r.segments) + " segments, " + std::to_string(r.hypotheses) +
                " hypotheses, " + std::to_string(r.refined) + " refined";
     }
+    if (frame) {
+      if (gray.cols != labels->width || gray.rows != labels->height)
+        throw InputError(path, 0, "image size differs from the labels' image_size");
+      score.Merge(frontend::ScoreLabelledFrame(dets, *frame, gray.cols, gray.rows));
+    }
     const std::string name = std::filesystem::path(path).filename().string();
     std::printf("%s: %zu %s in %.1f ms (%s%s)\n", path.c_str(), dets.size(),
                 tags ? "tags" : "rectangles", times.Total(), times.ToString().c_str(),
@@ -129,6 +180,13 @@ void RunDetect(const DetectArgs& args) {
   }
   if (csv.is_open() && !csv.flush())
     throw InputError(args.out + "/detections.csv", 0, "write failed");
+  if (labels) {
+    if (!labelled.empty())
+      std::fprintf(stderr, "fsp: warning: %zu of %zu labelled frames are not among the images\n",
+                   labelled.size(), labels->frames.size());
+    if (score.frames == 0) throw InputError(args.labels, 0, "no image of a labelled frame given");
+    PrintLabelScore(score);
+  }
 }
 
 }  // namespace
@@ -169,8 +227,13 @@ void AddDetectCommand(CLI::App& root) {
       ->capture_default_str();
   sub->add_option(
       "--calib", args->calib,
-      "camera calibration (EuRoC sensor.yaml, Kalibr camchain, fsp calib.yaml): sides are fitted\n"
-      "as straight lines after undistortion");
+      "camera calibration (EuRoC sensor.yaml, Kalibr camchain, fsp calib.yaml, or a DSO/DM-VIO\n"
+      "camera.txt): sides are fitted as straight lines after undistortion");
+  sub->add_option("--labels", args->labels,
+                  "hand labels of the frames (JSON, tests/frontend/data/README.md): detect only "
+                  "the images named <t_ns>.<ext> that are labelled and score them (recall, "
+                  "precision, corner error per class)")
+      ->check(CLI::ExistingFile);
   sub->add_option("--out", args->out, "output folder for detections.csv and the drawn PNGs");
   sub->callback([args] { RunDetect(*args); });
 }

@@ -24,6 +24,20 @@ inline std::string TestDataDir() {
                << "' not found: set FSP_TEST_DATA to the shared data "     \
                   "directory (see docs/development.md)"
 
+// The DM-VIO room walk (a handheld RealSense recording in the DSO layout; fetched, never copied
+// here: see the shared data's README): $FSP_DMVIO_WALK, else /work/scratch/dmvio when it exists;
+// empty when neither.
+inline std::string DmvioWalkDir() {
+  if (const char* env = std::getenv("FSP_DMVIO_WALK"); env && *env) return env;
+  return std::filesystem::exists("/work/scratch/dmvio") ? "/work/scratch/dmvio" : "";
+}
+
+#define FSP_REQUIRE_DMVIO_WALK(var)                                                               \
+  const std::string var = ::fsp::test::DmvioWalkDir();                                            \
+  if (var.empty() || !std::filesystem::exists(std::filesystem::path(var) / "cam0" / "times.txt")) \
+  GTEST_SKIP() << "DM-VIO room walk not found: fetch github:Zoltan3057/DM-VIO-dataset (commit "   \
+                  "7f0fcff) into a scratch folder and set FSP_DMVIO_WALK to it"
+
 // Where the tests write: test_scratch/ in this build tree.
 inline std::filesystem::path ScratchRoot() {
   return FSP_TEST_SCRATCH;

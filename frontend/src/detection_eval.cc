@@ -2,8 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <map>
+#include <set>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "fsp/common/csv.h"
 #include "fsp/common/error.h"
@@ -97,6 +102,193 @@ MatchStats EvaluateSequence(const std::string& dir, const DetectFn& detect,
         detect(gray), it == by_time.end() ? std::vector<GtObservation>() : it->second, options));
   }
   return total;
+}
+
+// --- Hand labels ---------------------------------------------------------------------------------
+
+FrameLabels ReadFrameLabels(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, 0, "cannot open the label file");
+  nlohmann::json root;
+  try {
+    root = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(path, 0, std::string("not valid JSON: ") + e.what());
+  }
+  const auto fail = [&](const std::string& where, const std::string& what) {
+    throw InputError(path + ": " + where + ": " + what);
+  };
+  if (!root.is_object() || !root.contains("frames") || !root.at("frames").is_array() ||
+      !root.contains("image_size") || !root.at("image_size").is_array() ||
+      root.at("image_size").size() != 2)
+    fail("top level", "expected {\"image_size\": [w, h], \"frames\": [...]}");
+  FrameLabels labels;
+  if (root.contains("recording") && root.at("recording").is_string())
+    labels.recording = root.at("recording").get<std::string>();
+  labels.width = root.at("image_size")[0].get<int>();
+  labels.height = root.at("image_size")[1].get<int>();
+  if (labels.width <= 0 || labels.height <= 0) fail("image_size", "must be positive");
+  const nlohmann::json& frames = root.at("frames");
+  for (size_t f = 0; f < frames.size(); ++f) {
+    const nlohmann::json& jf = frames[f];
+    const std::string where = "frames[" + std::to_string(f) + "]";
+    if (!jf.is_object() || !jf.contains("t_ns") || !jf.at("t_ns").is_number_integer() ||
+        !jf.contains("objects") || !jf.at("objects").is_array())
+      fail(where, "expected {\"t_ns\": integer, \"objects\": [...]}");
+    LabelledFrame frame;
+    frame.t_ns = jf.at("t_ns").get<int64_t>();
+    if (!labels.frames.empty() && frame.t_ns <= labels.frames.back().t_ns)
+      fail(where, "t_ns not increasing");
+    std::set<int> ids;
+    for (size_t i = 0; i < jf.at("objects").size(); ++i) {
+      const nlohmann::json& jo = jf.at("objects")[i];
+      const std::string w = where + ".objects[" + std::to_string(i) + "]";
+      LabelledObject o;
+      if (!jo.is_object() || !jo.contains("id") || !jo.at("id").is_number_integer())
+        fail(w, "\"id\" missing or not an integer");
+      o.id = jo.at("id").get<int>();
+      if (!ids.insert(o.id).second) fail(w, "id repeated in the frame");
+      if (!jo.contains("class") || !jo.at("class").is_string()) fail(w, "\"class\" missing");
+      o.label_class = jo.at("class").get<std::string>();
+      const std::string state = jo.contains("state") && jo.at("state").is_string()
+                                    ? jo.at("state").get<std::string>()
+                                    : std::string();
+      if (state == "full")
+        o.state = LabelledObject::State::kFull;
+      else if (state == "cut")
+        o.state = LabelledObject::State::kCut;
+      else if (state == "ignore")
+        o.state = LabelledObject::State::kIgnore;
+      else
+        fail(w, "\"state\" must be full, cut or ignore, got '" + state + "'");
+      if (!jo.contains("corners") || !jo.at("corners").is_array() || jo.at("corners").size() != 4)
+        fail(w, "\"corners\" must be 4 points [x, y]");
+      for (int j = 0; j < 4; ++j) {
+        const nlohmann::json& c = jo.at("corners")[static_cast<size_t>(j)];
+        if (!c.is_array() || c.size() != 2 || !c[0].is_number() || !c[1].is_number() ||
+            !std::isfinite(c[0].get<double>()) || !std::isfinite(c[1].get<double>()))
+          fail(w, "corners[" + std::to_string(j) + "] is not a finite [x, y]");
+        o.corners[j] = Vec2(c[0].get<double>(), c[1].get<double>());
+      }
+      if (o.state == LabelledObject::State::kCut) {
+        if (!jo.contains("visible") || !jo.at("visible").is_array() || jo.at("visible").size() != 4)
+          fail(w, "a cut object needs \"visible\": 4 booleans");
+        for (int j = 0; j < 4; ++j)
+          o.visible[j] = jo.at("visible")[static_cast<size_t>(j)].get<bool>();
+      }
+      frame.objects.push_back(o);
+    }
+    labels.frames.push_back(std::move(frame));
+  }
+  return labels;
+}
+
+namespace {
+
+std::vector<cv::Point2f> Hull(const Corners& c) {
+  std::vector<cv::Point2f> p, h;
+  for (const Vec2& v : c) p.emplace_back(static_cast<float>(v.x()), static_cast<float>(v.y()));
+  cv::convexHull(p, h);
+  return h;
+}
+
+// IoU of a detection with the part of a labelled outline inside the image.
+double IouInImage(const Corners& det, const Corners& label, int width, int height) {
+  const std::vector<cv::Point2f> image = {
+      {-0.5f, -0.5f}, {width - 0.5f, -0.5f}, {width - 0.5f, height - 0.5f}, {-0.5f, height - 0.5f}};
+  std::vector<cv::Point2f> in_image, inter;
+  if (cv::intersectConvexConvex(Hull(label), image, in_image) <= 0.0f) return 0.0;
+  const std::vector<cv::Point2f> d = Hull(det);
+  const double i =
+      std::max(0.0, static_cast<double>(cv::intersectConvexConvex(d, in_image, inter)));
+  const double u = cv::contourArea(d) + cv::contourArea(in_image) - i;
+  return u > 0.0 ? i / u : 0.0;
+}
+
+}  // namespace
+
+LabelScore::PerClass LabelScore::Total() const {
+  PerClass t;
+  for (const auto& [name, c] : per_class) {
+    t.full += c.full;
+    t.found += c.found;
+    t.cut += c.cut;
+    t.cut_found += c.cut_found;
+    t.corner_err_px.insert(t.corner_err_px.end(), c.corner_err_px.begin(), c.corner_err_px.end());
+  }
+  return t;
+}
+
+double LabelScore::Recall() const {
+  const PerClass t = Total();
+  return t.full ? double(t.found) / t.full : 1.0;
+}
+
+double LabelScore::Precision() const {
+  return detections ? double(true_positives) / detections : 1.0;
+}
+
+void LabelScore::Merge(const LabelScore& o) {
+  frames += o.frames;
+  detections += o.detections;
+  true_positives += o.true_positives;
+  for (const auto& [name, c] : o.per_class) {
+    PerClass& m = per_class[name];
+    m.full += c.full;
+    m.found += c.found;
+    m.cut += c.cut;
+    m.cut_found += c.cut_found;
+    m.corner_err_px.insert(m.corner_err_px.end(), c.corner_err_px.begin(), c.corner_err_px.end());
+  }
+}
+
+LabelScore ScoreLabelledFrame(const std::vector<Detection>& dets, const LabelledFrame& labels,
+                              int width, int height, const LabelMatchOptions& o) {
+  using State = LabelledObject::State;
+  LabelScore s;
+  s.frames = 1;
+  const auto iou = [&](const Detection& d, const LabelledObject& l) {
+    return l.state == State::kFull ? QuadIou(d.corners_px, l.corners)
+                                   : IouInImage(d.corners_px, l.corners, width, height);
+  };
+  for (const Detection& d : dets) {
+    bool ignored = false, hit = false;
+    for (const LabelledObject& l : labels.objects) {
+      if (iou(d, l) < o.min_iou) continue;
+      (l.state == State::kIgnore ? ignored : hit) = true;
+    }
+    if (ignored && !hit) continue;
+    ++s.detections;
+    s.true_positives += hit;
+  }
+  for (const LabelledObject& l : labels.objects) {
+    if (l.state == State::kIgnore) continue;
+    LabelScore::PerClass& c = s.per_class[l.label_class];
+    const bool full = l.state == State::kFull;
+    if (full && ShortestSide(l.corners) < o.min_shortest_side_px) continue;
+    const Detection* best = nullptr;
+    double best_iou = o.min_iou;
+    for (const Detection& d : dets) {
+      const double v = iou(d, l);
+      if (v >= best_iou) {
+        best_iou = v;
+        best = &d;
+      }
+    }
+    if (!full) {
+      ++c.cut;
+      c.cut_found += best != nullptr;
+      continue;
+    }
+    ++c.full;
+    if (!best) continue;
+    ++c.found;
+    int shift = 0;
+    MeanCornerDistanceBestShift(l.corners, best->corners_px, &shift);
+    for (int i = 0; i < 4; ++i)
+      c.corner_err_px.push_back((l.corners[i] - best->corners_px[(i + shift) % 4]).norm());
+  }
+  return s;
 }
 
 }  // namespace fsp::frontend

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
 
 namespace fsp::frontend {
 
@@ -184,6 +187,20 @@ Eigen::AlignedBox2d BoundingBox(const Corners& c) {
   Eigen::AlignedBox2d b;
   for (const Vec2& p : c) b.extend(p);
   return b;
+}
+
+double QuadIou(const Corners& a, const Corners& b) {
+  const auto hull = [](const Corners& c) {
+    std::vector<cv::Point2f> p, h;
+    for (const Vec2& v : c) p.emplace_back(static_cast<float>(v.x()), static_cast<float>(v.y()));
+    cv::convexHull(p, h);
+    return h;
+  };
+  const std::vector<cv::Point2f> ha = hull(a), hb = hull(b);
+  std::vector<cv::Point2f> inter;
+  const double i = std::max(0.0, static_cast<double>(cv::intersectConvexConvex(ha, hb, inter)));
+  const double u = cv::contourArea(ha) + cv::contourArea(hb) - i;
+  return u > 0.0 ? i / u : 0.0;
 }
 
 double BoxIou(const Eigen::AlignedBox2d& a, const Eigen::AlignedBox2d& b) {

@@ -77,19 +77,6 @@ TEST(RealRecordings, EurocStandingStillStaysWithinTwoCentimetres) {
   EXPECT_EQ(strict_map["objects"].size(), 0u);
 }
 
-// The DM-VIO room walk (a handheld RealSense recording in the DSO layout; fetched, never copied
-// here: see the shared data's README): $FSP_DMVIO_WALK, else /work/scratch/dmvio when it exists.
-std::string DmvioWalkDir() {
-  if (const char* env = std::getenv("FSP_DMVIO_WALK"); env && *env) return env;
-  return fs::exists("/work/scratch/dmvio") ? "/work/scratch/dmvio" : "";
-}
-
-#define FSP_REQUIRE_DMVIO_WALK(var)                                                             \
-  const std::string var = DmvioWalkDir();                                                       \
-  if (var.empty() || !fs::exists(fs::path(var) / "cam0" / "times.txt"))                         \
-  GTEST_SKIP() << "DM-VIO room walk not found: fetch github:Zoltan3057/DM-VIO-dataset (commit " \
-                  "7f0fcff) into a scratch folder and set FSP_DMVIO_WALK to it"
-
 // Only the first 60 s may be used for tests and tuning: frames before 1650458776.85 s.
 constexpr int64_t kWalkFirst60sEndNs = 1'650'458'776'850'000'000LL;
 

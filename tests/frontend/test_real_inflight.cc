@@ -19,22 +19,11 @@
 #include "fsp/common/calibration.h"
 #include "fsp/frontend/image_io.h"
 #include "fsp/frontend/rect_detector.h"
+#include "fsp/frontend/rect_geometry.h"
 #include "test_util.h"
 
 namespace fsp::frontend {
 namespace {
-
-// IoU of two convex quadrilaterals (pixels).
-double QuadIou(const Corners& a, const Corners& b) {
-  std::vector<cv::Point2f> pa, pb, inter;
-  for (int i = 0; i < 4; ++i) {
-    pa.emplace_back(static_cast<float>(a[i].x()), static_cast<float>(a[i].y()));
-    pb.emplace_back(static_cast<float>(b[i].x()), static_cast<float>(b[i].y()));
-  }
-  const double i = std::max(0.0, static_cast<double>(cv::intersectConvexConvex(pa, pb, inter)));
-  const double u = cv::contourArea(pa) + cv::contourArea(pb) - i;
-  return u > 0.0 ? i / u : 0.0;
-}
 
 // The best IoU of a labelled outline with any detection.
 double BestIou(const std::vector<Detection>& dets, const Corners& label) {

@@ -1,9 +1,11 @@
 // Scoring detections against ground-truth corners (a rendered sequence's observations_gt.csv):
-// recall, precision and corner error, per frame or over a whole sequence folder.
+// recall, precision and corner error, per frame or over a whole sequence folder; and against hand
+// labels of real frames (polygon overlap, per labelled class).
 #pragma once
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -50,5 +52,62 @@ MatchStats MatchFrame(const std::vector<Detection>& detections,
 using DetectFn = std::function<std::vector<Detection>(const cv::Mat& gray)>;
 MatchStats EvaluateSequence(const std::string& dir, const DetectFn& detect,
                             const MatchOptions& options = MatchOptions(), int every = 1);
+
+// --- Hand labels of real frames (tests/frontend/data/README.md) ---------------------------------
+
+// One object in one labelled frame. Corners s1..s4 in pixels of the image file (distorted pixels),
+// possibly outside the image when the object is cut by its border.
+struct LabelledObject {
+  enum class State { kFull, kCut, kIgnore };
+  int id = -1;              // the same physical object has the same id in every frame
+  std::string label_class;  // door, cabinet, screen, plate, picture, paper, window, other
+  State state = State::kFull;
+  Corners corners;
+  std::array<bool, 4> visible = {true, true, true, true};  // kCut: corners in view
+};
+
+struct LabelledFrame {
+  int64_t t_ns = 0;
+  std::vector<LabelledObject> objects;
+};
+
+struct FrameLabels {
+  std::string recording;
+  int width = 0, height = 0;
+  std::vector<LabelledFrame> frames;  // sorted by t_ns
+};
+
+// Reads a label file (the JSON shape of tests/frontend/data/README.md); InputError naming the file
+// and the entry on anything malformed.
+FrameLabels ReadFrameLabels(const std::string& path);
+
+struct LabelMatchOptions {
+  double min_iou = 0.5;                // a detection and a label overlap at least this much
+  double min_shortest_side_px = 30.0;  // full labels counted for recall
+};
+
+// Scores of detections against labels, per labelled class and in total.
+struct LabelScore {
+  struct PerClass {
+    int full = 0;       // full labels counted for recall
+    int found = 0;      // ... that a detection overlaps by min_iou
+    int cut = 0;        // cut labels
+    int cut_found = 0;  // ... that a detection overlaps (its in-image part) by min_iou
+    std::vector<double> corner_err_px;  // found full labels' corners (best cyclic shift)
+  };
+  std::map<std::string, PerClass> per_class;
+  int frames = 0;
+  int detections = 0;      // detections that overlap no ignored label
+  int true_positives = 0;  // ... that overlap a full or cut label
+  PerClass Total() const;
+  double Recall() const;     // full labels found / full labels (1 when there is none)
+  double Precision() const;  // true_positives / detections (1 when there is none)
+  void Merge(const LabelScore& other);
+};
+
+// Scores one frame's detections (corners_px, distorted pixels as the labels) against its labels.
+LabelScore ScoreLabelledFrame(const std::vector<Detection>& detections, const LabelledFrame& labels,
+                              int width, int height,
+                              const LabelMatchOptions& options = LabelMatchOptions());
 
 }  // namespace fsp::frontend

@@ -82,6 +82,9 @@ double ShortestSide(const Corners& c);
 // Axis-aligned bounding box of the corners.
 Eigen::AlignedBox2d BoundingBox(const Corners& c);
 
+// Intersection over union of two quadrilaterals (their convex hulls), 0 when both are empty.
+double QuadIou(const Corners& a, const Corners& b);
+
 // Intersection over union of two boxes (0 when both are empty).
 double BoxIou(const Eigen::AlignedBox2d& a, const Eigen::AlignedBox2d& b);
 
