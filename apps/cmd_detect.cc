@@ -25,6 +25,7 @@
 #include "fsp/frontend/draw.h"
 #include "fsp/frontend/image_io.h"
 #include "fsp/frontend/rect_detector.h"
+#include "run_config.h"
 
 namespace fsp::apps {
 
@@ -35,6 +36,9 @@ struct DetectArgs {
   std::string frontend = "rect";
   std::string calib;
   std::string labels;
+  std::string config;
+  // -1: the config's (or the default) frontend.rect.detect_long_side.
+  int detect_long_side = -1;
   std::string out;
   // AprilTag options (family, sigma, decoding) as given; decimate and refine_edges are set per
   // image from the two below.
@@ -91,9 +95,12 @@ void RunDetect(const DetectArgs& args) {
   frontend::AprilTagDetectorOptions tag_o = args.tag;
   double tag_decimate = -1.0;  // of the detector in `tags`
   if (args.frontend != "apriltag") {
+    frontend::RectDetectorOptions rect_o =
+        args.config.empty() ? args.rect : ReadRunConfig(args.config).frontend.rect;
+    if (args.detect_long_side >= 0) rect_o.detect_long_side = args.detect_long_side;
     std::string why;
-    if (!args.rect.Check(&why)) throw InputError("--detect-long-side", 0, why);
-    rect = std::make_unique<frontend::RectDetector>(args.rect);
+    if (!rect_o.Check(&why)) throw InputError("--detect-long-side", 0, why);
+    rect = std::make_unique<frontend::RectDetector>(rect_o);
   }
   std::ofstream csv;
   if (!args.out.empty()) {
@@ -220,11 +227,14 @@ void AddDetectCommand(CLI::App& root) {
   sub->add_option("--min-decision-margin", args->tag.min_decision_margin,
                   "AprilTag: smallest decision margin kept")
       ->capture_default_str();
-  sub->add_option("--detect-long-side", args->rect.detect_long_side,
+  sub->add_option("--detect-long-side", args->detect_long_side,
                   "rectangles: images with a longer side >= 2x this are detected on a level "
                   "reduced by an integer factor to >= this [px], corners refined at full "
-                  "resolution; 0 = full resolution")
-      ->capture_default_str();
+                  "resolution; 0 = full resolution (default: frontend.rect.detect_long_side, " +
+                      std::to_string(args->rect.detect_long_side) + ")");
+  sub->add_option("--config", args->config,
+                  "the rectangle detector's options from an fsp run config (frontend.rect.*)")
+      ->check(CLI::ExistingFile);
   sub->add_option(
       "--calib", args->calib,
       "camera calibration (EuRoC sensor.yaml, Kalibr camchain, fsp calib.yaml, or a DSO/DM-VIO\n"
