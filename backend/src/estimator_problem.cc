@@ -16,6 +16,7 @@
 #include <unordered_map>
 
 #include <ceres/ceres.h>
+#include <Eigen/Cholesky>
 
 #include "fsp/backend/fhp_factor.h"
 #include "fsp/backend/fsp_factor.h"
@@ -83,14 +84,23 @@ void Estimator::Impl::ComputeSigmas(ceres::Problem* problem) {
     sigmas[obj] = {wh.first * sigma0, wh.second * sigma0};
   }
   if (mapped.empty()) return;
-  // σ of the mean log scale: Cov(s_i, s_j) summed over every pair.
-  double var = 0.0;
-  for (size_t i = 0; i < mapped.size(); ++i)
-    for (size_t j = i; j < mapped.size(); ++j)
-      var += (i == j ? 1.0 : 2.0) *
-             mapped[i]->landmark.ScaleCovariance(covariance, mapped[j]->landmark);
-  const double n = static_cast<double>(mapped.size());
-  summary.scale_sigma = std::sqrt(std::max(0.0, var)) / n * sigma0;
+  // σ of the precision-weighted (generalised least squares) combination of the objects' log
+  // scales s_i with their covariance C: 1 / (1ᵀ C⁻¹ 1). A plain mean let one object seen briefly
+  // (σ 50 %) dominate: 20-27 % on the short clips for scale errors of 0.03-0.16 %.
+  const size_t n = mapped.size();
+  Eigen::MatrixXd C(n, n);
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i; j < n; ++j)
+      C(i, j) = C(j, i) = mapped[i]->landmark.ScaleCovariance(covariance, mapped[j]->landmark);
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(C);
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(n));
+  const double information =
+      ldlt.info() == Eigen::Success && ldlt.isPositive() ? ones.dot(ldlt.solve(ones)) : 0.0;
+  // A singular C (an object's scale not determined at all) falls back to the plain mean.
+  const double var = information > 0.0 && std::isfinite(information)
+                         ? 1.0 / information
+                         : C.sum() / static_cast<double>(n * n);
+  summary.scale_sigma = std::sqrt(std::max(0.0, var)) * sigma0;
   if (summary.scale_sigma > options.warn_scale_sigma) {
     char what[200];
     std::snprintf(what, sizeof(what),

@@ -429,11 +429,10 @@ struct EstimatorSummary {
   double batch_solve_ms = 0.0;  // the final full solve (batch mode) [ms]
   double final_cost = 0.0;
   // How well the map's metric scale is determined (after Finish, FSP landmarks): the σ of the
-  // mean of the mapped objects' log sizes ½ (log w + log h), from the final solve's covariance
-  // with every cross-covariance between objects. A relative σ: 0.01 = the map's sizes and the
-  // trajectory's scale are known to about 1 %. It bounds the common (scale) part of the objects'
-  // size errors from above (their independent parts average out as 1/n). −1: unknown (FHP, no
-  // objects, or the covariance failed).
+  // precision-weighted combination of the mapped objects' log sizes ½ (log w + log h), from the
+  // final solve's covariance with every cross-covariance between objects (1 / (1ᵀ C⁻¹ 1)). A
+  // relative σ: 0.01 = the map's sizes and the trajectory's scale are known to about 1 %. −1:
+  // unknown (FHP, no objects, or the covariance failed).
   double scale_sigma = -1.0;
   // The final solve's a-posteriori variance factor σ0² (after Finish): the χ² of its residuals
   // (whitened, without the robust loss) over their redundancy (residuals minus free parameters).
