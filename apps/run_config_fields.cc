@@ -95,6 +95,8 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.motion_init.max_rotation_error_deg", &e.motion_init.max_rotation_error_deg,
        kPositive},
       {"estimator.motion_init.max_gravity_error", &e.motion_init.max_gravity_error, kPositive},
+      {"estimator.motion_init.min_width_m", &e.motion_init.min_width_m, kPositive},
+      {"estimator.motion_init.max_width_m", &e.motion_init.max_width_m, kPositive},
       {"estimator.motion_init_velocity_sigma", &e.motion_init_velocity_sigma, kPositive},
       {"estimator.point_init.enabled", &e.point_init.enabled, kAny},
       {"estimator.point_init.window_s", &e.point_init.window_s, kPositive},

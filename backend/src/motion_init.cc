@@ -21,6 +21,8 @@ bool MotionInitOptions::Check(std::string* why) const {
     os << "min_views must be >= 3, min_view_spacing_s >= 0";
   else if (!(max_rotation_error_deg > 0.0) || !(max_gravity_error > 0.0))
     os << "max_rotation_error_deg and max_gravity_error must be > 0";
+  else if (!(min_width_m > 0.0) || !(max_width_m > min_width_m))
+    os << "need 0 < min_width_m < max_width_m";
   if (why) *why = os.str();
   return os.str().empty();
 }
@@ -174,6 +176,15 @@ MotionInitSummary InitializeInMotion(const std::vector<BufferedFrame>& frames,
   }
   if (!(al.s > 0.0) || !std::isfinite(al.s)) {
     out.reason = "in motion: the scale is not positive after fixing gravity's magnitude";
+    return out;
+  }
+  if (al.s < options.min_width_m || al.s > options.max_width_m) {
+    char why[200];
+    std::snprintf(why, sizeof(why),
+                  "in motion: object %d would be %.3g m wide, outside the plausible %.2f-%.1f m "
+                  "(too little acceleration, or a wrong track)",
+                  id, al.s, options.min_width_m, options.max_width_m);
+    out.reason = why;
     return out;
   }
   // 4. The world frame: z up, p = 0 at the first view.
