@@ -312,7 +312,8 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
   wide.search_px = std::max(o.search_px, o.texture_search_px);
   const EdgeProbe wide_probe(probe.smooth, probe.cam, wide);
   for (Quad& q : quads) {
-    const RectangleTest pre = BestRectangleTest(q.c, Ks);
+    // The hypothesis' corners come from segments (about a pixel off): twice the corner error.
+    const RectangleTest pre = BestRectangleTest(q.c, Ks, 2.0 * o.rectangle_corner_px);
     if (!pre.valid || pre.abs_cos > std::min(1.0, 2.0 * o.max_abs_cos)) continue;
     // A corner so far out of view that refinement (which moves corners by at most 0.2 x the
     // shortest side + 2 search_px) cannot bring it within the cut-off container limit: neither a
@@ -322,6 +323,10 @@ std::vector<Quad> RefineHypotheses(std::vector<Quad>& quads, const std::vector<S
                              2.0 * o.search_px + o.max_corner_outside_px;
     if (CornerOutside(q.c, probe.cam, probe.smooth.cols, probe.smooth.rows) > reach_out) continue;
     const Quad hypothesis = q;
+    // Each hypothesis draws its own RANSAC samples: with one generator for all, a hypothesis more
+    // or less anywhere in the image changed the draws of every later one (the in-flight EuRoC
+    // mattress came and went with a 32 px quad elsewhere).
+    rng.seed(o.seed);
     if (RefineQuad(probe, segs, min_gradient, &rng, &q, &q.edges)) {
       refined.push_back(q);
       continue;

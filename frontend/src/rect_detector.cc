@@ -61,6 +61,7 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (!(continuation_step_px >= 0.0)) os << "continuation_step_px must be >= 0; ";
   if (!(any_corner_min_side_frac >= 0.0)) os << "any_corner_min_side_frac must be >= 0; ";
   if (!(max_abs_cos > 0.0 && max_abs_cos <= 1.0)) os << "max_abs_cos must be in (0, 1]; ";
+  if (!(rectangle_corner_px >= 0.0)) os << "rectangle_corner_px must be >= 0; ";
   if (!(max_aspect >= 1.0)) os << "max_aspect must be >= 1; ";
   if (!(door_leaf_min_area_frac >= 0.0 && door_leaf_min_area_frac <= 1.0))
     os << "door_leaf_min_area_frac must be in [0, 1]; ";
@@ -74,6 +75,8 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (!(door_min_aspect >= 0.0 && door_max_aspect >= door_min_aspect))
     os << "door_min_aspect must be >= 0 and <= door_max_aspect; ";
   if (detect_long_side < 0) os << "detect_long_side must be >= 0; ";
+  if (!(min_side_px >= 0.0) || !(min_level_side_px >= 0.0))
+    os << "min_side_px and min_level_side_px must be >= 0; ";
   if (texture_level < 0) os << "texture_level must be >= 0; ";
   if (!(texture_search_px >= 0.0)) os << "texture_search_px must be >= 0; ";
   if (!(focal_prior_min > 0.0 && focal_prior_max >= focal_prior_min))
@@ -186,7 +189,8 @@ std::vector<rect_internal::Quad> TextureHypotheses(const RectDetectorOptions& o,
 // image the refinement read.
 RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::Mat& gray,
                                  const PinholeRadtan* camera, const Vec3* gravity_C,
-                                 const std::vector<Corners>* ignore, cv::Mat* smooth_out) {
+                                 const std::vector<Corners>* ignore, cv::Mat* smooth_out,
+                                 double level_scale = 1.0) {
   namespace ri = rect_internal;
   RectDetectorOptions uncalibrated = options;
   if (!camera) {
@@ -222,10 +226,21 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   res.canny_high = edges.canny_high;
   res.times.Add("edges", sw.Lap());
 
+  // Size limits (see min_side_px): with a calibration the shortest side and segment are capped in
+  // the full-resolution image's pixels (`level_scale` of them per level px).
+  double min_side = o.min_side_frac * diag;
+  int min_seg = ri::MinSegmentPx(o, diag);
+  if (camera && o.min_side_px > 0.0) {
+    const double side_px = o.min_side_px / level_scale;
+    min_side = std::min(min_side, side_px);
+    min_seg = std::min(
+        min_seg,
+        std::max(4, static_cast<int>(std::lround(side_px * o.min_segment_frac / o.min_side_frac))));
+  }
+
   // 2. segments: edge chains split into straight pieces, each fitted by least squares. Pieces down
   // to a third of the minimum length are kept for merging: a chain that runs into another edge
   // takes a stretch of it, leaving short pieces of a long side that merging joins again.
-  const int min_seg = ri::MinSegmentPx(o, diag);
   const int min_piece = std::max(6, min_seg / 3);
   std::vector<ri::Seg> segs =
       ri::BuildSegments(ri::TracePieces(edges.edges, min_piece, o.segment_fit_px), edges.smooth,
@@ -238,7 +253,6 @@ RectDetector::Result DetectLevel(const RectDetectorOptions& options, const cv::M
   // 3. grouping: junctions at segment ends, then 4-cycles a → b → c → d → a. Quads down to
   // `margin_probe_frac` x min_side are found only to recognise the margins of objects too small to
   // report (see the bright margin rule in the suppression stage); they are never reported.
-  const double min_side = o.min_side_frac * diag;
   const double probe_side =
       o.prefer_inner_of_bright_margin ? o.margin_probe_frac * min_side : min_side;
   const ri::SegmentJunctions junctions = ri::FindJunctions(segs, o);
@@ -337,15 +351,20 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
   if (camera) FSP_CHECK(camera->width == gray.cols && camera->height == gray.rows);
   const Options& o = options_;
   const int long_side = std::max(gray.cols, gray.rows);
-  if (o.detect_long_side <= 0 || long_side < 2 * o.detect_long_side)
-    return DetectLevel(o, gray, camera, gravity_C, ignore, nullptr);
+  // The reduction factor: the largest integer that keeps the longer side at least
+  // detect_long_side, and with a calibration the smallest rectangle (min_side_px) at least
+  // min_level_side_px level px.
+  int k = o.detect_long_side > 0 ? long_side / o.detect_long_side : 1;
+  if (camera && o.min_side_px > 0.0 && o.min_level_side_px > 0.0)
+    k = std::min(k, static_cast<int>(o.min_side_px / o.min_level_side_px));
+  if (k < 2) return DetectLevel(o, gray, camera, gravity_C, ignore, nullptr);
 
   // Detection level: area-averaged to `detect_long_side`, the options unchanged (their pixel
   // values are level pixels: edge blur, search widths, slacks).
   Stopwatch sw;
   // An integer factor (OpenCV's fast path for area averaging: ~5 ms on 12 megapixels against ~50 ms
-  // for a fractional one): the level's longer side is in [detect_long_side, 2 x detect_long_side).
-  const int k = long_side / o.detect_long_side;
+  // for a fractional one): the level's longer side is in [detect_long_side, 2 x detect_long_side)
+  // unless min_side_px asks for a finer level.
   cv::Mat level;
   // The last cols % k columns and rows % k rows are left out so that the factor is exact.
   cv::resize(gray(cv::Rect(0, 0, gray.cols / k * k, gray.rows / k * k)), level,
@@ -362,7 +381,7 @@ RectDetector::Result RectDetector::Detect(const cv::Mat& gray, const PinholeRadt
       level_ignore.push_back(q);
     }
   Result res = DetectLevel(o, level, level_cam ? &*level_cam : nullptr, gravity_C,
-                           ignore ? &level_ignore : nullptr, &level_smooth);
+                           ignore ? &level_ignore : nullptr, &level_smooth, s);
   sw.Lap();
 
   // Full-resolution refinement of each detection's corners: the smoothed image only along the

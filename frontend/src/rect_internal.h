@@ -254,8 +254,12 @@ std::vector<std::pair<Vec2, Vec2>> TracePieces(cv::Mat& edges, int min_piece, do
 // ---- 2. segments (rect_segments.cc) ----
 
 // The rectangle test over candidate intrinsics: the calibration's K alone, or without one the
-// focal-length prior (RectDetectorOptions::focal_prior_*): the result with the smallest |cos|.
-RectangleTest BestRectangleTest(const Corners& undistorted_px, const std::vector<Mat3>& Ks);
+// focal-length prior (RectDetectorOptions::focal_prior_*): the result with the smallest |cos|,
+// that |cos| lowered by its first-order change when each corner moves by up to `corner_px` (see
+// RectDetectorOptions::rectangle_corner_px; 0: the plain test). `plain_abs_cos` (optional)
+// receives the |cos| before lowering.
+RectangleTest BestRectangleTest(const Corners& undistorted_px, const std::vector<Mat3>& Ks,
+                                double corner_px = 0.0, double* plain_abs_cos = nullptr);
 
 // Candidate intrinsics for the rectangle test: {camera K} with a calibration, else
 // `focal_prior_steps` focal lengths spaced geometrically over [focal_prior_min, focal_prior_max] x

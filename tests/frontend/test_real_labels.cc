@@ -123,10 +123,12 @@ TEST(RealLabels, ScoreCountsHitsMissesAndIgnoredRegions) {
 
 // The detector with the walk's camera and its defaults on the 32 labelled frames, as
 // `fsp detect IMAGES --calib cam0/camera.txt --labels tests/frontend/data/dmvio_walk_labels.json`.
-// Measured: 5 of 31 full rectangles (16 %: the large monitor's screen only, corners 0.2 px median
-// from the labels), 5 detections all on labelled objects, no cut one. The targets of the detector
-// on real video (recall 85 %, precision 90 %) are far: this pins today's figures against
-// regressions.
+// Measured: 14 of 31 full rectangles (45 %: the large monitor's screen 5 / 5, the sheet of paper
+// 4 / 5, switch and socket plates 5 / 12; the small monitor 0 / 6, the box 0 / 3), 16 detections,
+// 15 on labelled objects (94 %). Before the rectangle test allowed for the corners' error and the
+// size limit was in pixels (RectDetectorOptions::rectangle_corner_px, min_side_px): 5 of 31 (the
+// large monitor only), precision 100 %. The targets of the detector on real video (recall 85 %,
+// precision 90 %) are still far: this pins today's figures against regressions.
 TEST(RealLabels, DetectorOnTheWalksLabelledFrames) {
   FSP_REQUIRE_DMVIO_WALK(walk);
   const FrameLabels labels = ReadFrameLabels(kWalkLabels);
@@ -143,8 +145,8 @@ TEST(RealLabels, DetectorOnTheWalksLabelledFrames) {
                 c.cut, c.cut_found);
   std::printf("recall %.3f, precision %.3f over %d detections\n", score.Recall(), score.Precision(),
               score.detections);
-  EXPECT_GE(score.Recall(), 0.16);
-  EXPECT_GE(score.Precision(), 0.9);
+  EXPECT_GE(score.Recall(), 0.45);
+  EXPECT_GE(score.Precision(), 0.93);
 }
 
 }  // namespace

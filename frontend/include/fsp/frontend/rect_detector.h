@@ -70,6 +70,12 @@ struct RectDetectorOptions {
   // the pixel values (edge blur, search widths, slacks) are level pixels, and the time does not
   // grow with the pixel count. 0 detects at full resolution.
   int detect_long_side = 400;
+  // With a calibration (a video camera), the level is also kept fine enough for the smallest
+  // rectangle reported (`min_side_px`) to be at least this long there [level px]: a 1280 x 720
+  // frame is detected at 640 x 360 instead of 427 x 240, where 30-45 px switch plates were 10-15
+  // level px, shorter than the edge stage's pieces and the refinement's corner margins allow
+  // (DM-VIO walk's labelled frames: see min_side_px). 0: detect_long_side alone.
+  double min_level_side_px = 16.0;
   // Texture hypotheses (with a calibration only): the gradient magnitude (|dx| + |dy| of the
   // smoothed image) area-averaged by this factor, and the edge, segment and grouping stages run on
   // that map; its quads (corners scaled to full resolution) join the hypotheses, every side
@@ -150,6 +156,14 @@ struct RectDetectorOptions {
   // --- 3. grouping ---
   // Shortest side of a rectangle [fraction of the image diagonal]; 0.04 is ~32 px at 640x480.
   double min_side_frac = 0.04;
+  // With a calibration (a video camera: what it can detect depends on an object's size in pixels,
+  // not on its share of the frame), the shortest side is at most this [px of the full-resolution
+  // image], and the shortest segment (min_segment_frac) at most min_segment_frac / min_side_frac
+  // of it. 32 is min_side_frac at 640 x 480 (the rendered room, EuRoC: unchanged there); at
+  // 1280 x 720 min_side_frac alone asked for 59 px, more than every switch plate and the sheet of
+  // paper of the DM-VIO walk's labelled frames (30-68 px). 0: the fractions alone (photographs
+  // are detected without a calibration and keep them).
+  double min_side_px = 32.0;
   // Smallest / largest image angle between adjacent sides [deg]. Perspective bends 90 deg a lot.
   double min_corner_angle_deg = 25.0;
   // A junction of two segments: their intersection may lie beyond a segment's end (the side's edge
@@ -307,6 +321,13 @@ struct RectDetectorOptions {
   // Largest |cos| of the 3-D angle between adjacent sides (Zhang-He); 0.2 is 90 +- 11.5 deg.
   // Smaller rejects more non-rectangles but also true rectangles with noisy corners or a wrong K.
   double max_abs_cos = 0.2;
+  // Corner error allowed in the rectangle test [px of the detection level]: the |cos| tested is
+  // the smallest one reachable to first order by moving each corner up to this far (the refined
+  // corners; twice this for the hypotheses' pre-test). A small quad's 3-D angle is ill-conditioned
+  // (a pixel moves its sides' vanishing points a lot): the DM-VIO walk's hand-labelled switch
+  // plates (30-45 px, labels good to 2-3 px) have |cos| up to 0.46, the monitors (170-500 px) at
+  // most 0.05. 0: the plain test, which rejects small rectangles seen nearly head-on.
+  double rectangle_corner_px = 0.5;
   // Largest metric aspect ratio (long side / short side) accepted.
   double max_aspect = 8.0;
   // Horizontal field of view [deg] assumed for K when no calibration is given (corner order with a
