@@ -181,7 +181,7 @@ MotionInitSummary InitializeInMotion(const std::vector<BufferedFrame>& frames,
   if (al.s < options.min_width_m || al.s > options.max_width_m) {
     char why[200];
     std::snprintf(why, sizeof(why),
-                  "in motion: object %d would be %.3g m wide, outside the plausible %.2f-%.1f m "
+                  "in motion: object %d would be %.3g m wide, outside the plausible %.2g-%.2g m "
                   "(too little acceleration, or a wrong track)",
                   id, al.s, options.min_width_m, options.max_width_m);
     out.reason = why;

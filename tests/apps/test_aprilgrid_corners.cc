@@ -187,6 +187,24 @@ TEST(AprilGridCorners, InitialisedInMotionTheTagSizesAreRight) {
               m.trajectory->pairs, m.trajectory->ate.rmse * 100, m.trajectory->rpe_trans.rmse * 100,
               m.trajectory->rpe_rot.rmse);
   EXPECT_LT(m.trajectory->ate.rmse, 0.02);  // measured 0.85 cm (SE3) over 199 poses
+
+  // The alignment put the tags at init_scale wide (0.033 m at 0.05 s: its scale over 1 s is weak).
+  // With a plausible range above that, such starts are refused (and retried a frame later): the
+  // run starts later, from a start whose width is inside the range (measured: 0.076 m at 0.8 s).
+  const double scale = run["estimator"]["init_scale"].get<double>();
+  EXPECT_GT(scale, 0.01);
+  std::ofstream(dir / "narrow.yaml")
+      << "estimator:\n  motion_init:\n    min_width_m: " << 1.5 * scale << "\n";
+  const test::CommandResult narrow = test::RunFsp(
+      "run " + out.string() + " --frontend corners --corners " + (dir / "first10s.csv").string() +
+      " --objects " + (out / "objects.json").string() + " --config " +
+      (dir / "narrow.yaml").string() + " --out " + (dir / "narrow").string());
+  ASSERT_EQ(narrow.exit_code, 0) << narrow.err;
+  nlohmann::json narrow_run;
+  std::ifstream(dir / "narrow" / "run.json") >> narrow_run;
+  EXPECT_GE(narrow_run["estimator"]["init_scale"].get<double>(), 1.5 * scale);
+  EXPECT_GT(narrow_run["estimator"]["init_t_s"].get<double>(),
+            run["estimator"]["init_t_s"].get<double>());
 }
 
 }  // namespace
