@@ -443,9 +443,10 @@ class RectDetector {
     int segments = 0;                   // after merging
     int hypotheses = 0;                 // quads from grouping
     int refined = 0;                    // quads that survived refinement
-    // Only with Options::debug (else empty):
-    std::vector<std::pair<Vec2, Vec2>> segment_ends;  // merged segments (undistorted px)
-    std::vector<Corners> hypothesis_quads;            // grouping's quads (undistorted px)
+    // Only with Options::debug (else empty), in undistorted pixels of the detection level (of a
+    // reduced level when the image is detected on one: see detect_long_side):
+    std::vector<std::pair<Vec2, Vec2>> segment_ends;  // merged segments
+    std::vector<Corners> hypothesis_quads;            // grouping's quads
     std::vector<std::pair<Corners, double>>
         verified_quads;  // before suppression, with score (incl. margin probes)
     double canny_low = 0.0, canny_high = 0.0;  // thresholds used (Sobel magnitude units)
