@@ -185,37 +185,28 @@ FrameLabels ReadFrameLabels(const std::string& path) {
 
 namespace {
 
-std::vector<cv::Point2f> Hull(const Corners& c) {
-  std::vector<cv::Point2f> p, h;
-  for (const Vec2& v : c) p.emplace_back(static_cast<float>(v.x()), static_cast<float>(v.y()));
-  cv::convexHull(p, h);
-  return h;
-}
-
 // IoU of a detection with the part of a labelled outline inside the image.
 double IouInImage(const Corners& det, const Corners& label, int width, int height) {
   const std::vector<cv::Point2f> image = {
       {-0.5f, -0.5f}, {width - 0.5f, -0.5f}, {width - 0.5f, height - 0.5f}, {-0.5f, height - 0.5f}};
-  std::vector<cv::Point2f> in_image, inter;
-  if (cv::intersectConvexConvex(Hull(label), image, in_image) <= 0.0f) return 0.0;
-  const std::vector<cv::Point2f> d = Hull(det);
-  const double i =
-      std::max(0.0, static_cast<double>(cv::intersectConvexConvex(d, in_image, inter)));
-  const double u = cv::contourArea(d) + cv::contourArea(in_image) - i;
-  return u > 0.0 ? i / u : 0.0;
+  std::vector<cv::Point2f> in_image;
+  if (cv::intersectConvexConvex(QuadHull(label), image, in_image) <= 0.0f) return 0.0;
+  return ConvexIou(QuadHull(det), in_image);
 }
 
 }  // namespace
 
+void LabelScore::PerClass::Add(const PerClass& o) {
+  full += o.full;
+  found += o.found;
+  cut += o.cut;
+  cut_found += o.cut_found;
+  corner_err_px.insert(corner_err_px.end(), o.corner_err_px.begin(), o.corner_err_px.end());
+}
+
 LabelScore::PerClass LabelScore::Total() const {
   PerClass t;
-  for (const auto& [name, c] : per_class) {
-    t.full += c.full;
-    t.found += c.found;
-    t.cut += c.cut;
-    t.cut_found += c.cut_found;
-    t.corner_err_px.insert(t.corner_err_px.end(), c.corner_err_px.begin(), c.corner_err_px.end());
-  }
+  for (const auto& [name, c] : per_class) t.Add(c);
   return t;
 }
 
@@ -232,14 +223,7 @@ void LabelScore::Merge(const LabelScore& o) {
   frames += o.frames;
   detections += o.detections;
   true_positives += o.true_positives;
-  for (const auto& [name, c] : o.per_class) {
-    PerClass& m = per_class[name];
-    m.full += c.full;
-    m.found += c.found;
-    m.cut += c.cut;
-    m.cut_found += c.cut_found;
-    m.corner_err_px.insert(m.corner_err_px.end(), c.corner_err_px.begin(), c.corner_err_px.end());
-  }
+  for (const auto& [name, c] : o.per_class) per_class[name].Add(c);
 }
 
 LabelScore ScoreLabelledFrame(const std::vector<Detection>& dets, const LabelledFrame& labels,

@@ -189,18 +189,22 @@ Eigen::AlignedBox2d BoundingBox(const Corners& c) {
   return b;
 }
 
-double QuadIou(const Corners& a, const Corners& b) {
-  const auto hull = [](const Corners& c) {
-    std::vector<cv::Point2f> p, h;
-    for (const Vec2& v : c) p.emplace_back(static_cast<float>(v.x()), static_cast<float>(v.y()));
-    cv::convexHull(p, h);
-    return h;
-  };
-  const std::vector<cv::Point2f> ha = hull(a), hb = hull(b);
+std::vector<cv::Point2f> QuadHull(const Corners& c) {
+  std::vector<cv::Point2f> p, h;
+  for (const Vec2& v : c) p.emplace_back(static_cast<float>(v.x()), static_cast<float>(v.y()));
+  cv::convexHull(p, h);
+  return h;
+}
+
+double ConvexIou(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b) {
   std::vector<cv::Point2f> inter;
-  const double i = std::max(0.0, static_cast<double>(cv::intersectConvexConvex(ha, hb, inter)));
-  const double u = cv::contourArea(ha) + cv::contourArea(hb) - i;
+  const double i = std::max(0.0, static_cast<double>(cv::intersectConvexConvex(a, b, inter)));
+  const double u = cv::contourArea(a) + cv::contourArea(b) - i;
   return u > 0.0 ? i / u : 0.0;
+}
+
+double QuadIou(const Corners& a, const Corners& b) {
+  return ConvexIou(QuadHull(a), QuadHull(b));
 }
 
 double BoxIou(const Eigen::AlignedBox2d& a, const Eigen::AlignedBox2d& b) {

@@ -94,6 +94,7 @@ struct LabelScore {
     int cut = 0;        // cut labels
     int cut_found = 0;  // ... that a detection overlaps (its in-image part) by min_iou
     std::vector<double> corner_err_px;  // found full labels' corners (best cyclic shift)
+    void Add(const PerClass& other);
   };
   std::map<std::string, PerClass> per_class;
   int frames = 0;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <optional>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <opencv2/core/types.hpp>
@@ -82,7 +83,11 @@ double ShortestSide(const Corners& c);
 // Axis-aligned bounding box of the corners.
 Eigen::AlignedBox2d BoundingBox(const Corners& c);
 
-// Intersection over union of two quadrilaterals (their convex hulls), 0 when both are empty.
+// The convex hull of a quadrilateral's corners (OpenCV points, for its polygon functions).
+std::vector<cv::Point2f> QuadHull(const Corners& c);
+// Intersection over union of two convex polygons, 0 when both are empty.
+double ConvexIou(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b);
+// Intersection over union of two quadrilaterals (their convex hulls).
 double QuadIou(const Corners& a, const Corners& b);
 
 // Intersection over union of two boxes (0 when both are empty).
