@@ -107,12 +107,14 @@ void Run(const RunArgs& args) {
     std::printf(")\n");
   }
   const backend::EstimatorSummary& f = r.summary;
-  if (f.imu_gaps + f.frame_gaps + f.blind_stretches + f.divergences > 0) {
+  if (f.imu_gaps + f.frame_gaps + f.blind_stretches + f.dead_reckoning_stretches + f.divergences >
+      0) {
     std::printf(
         "  faults: %d IMU gaps (longest %.2f s), %d frame gaps (longest %.2f s), %d stretches "
-        "without objects (longest %.2f s), %d divergences, %d resets (run.json \"faults\")\n",
+        "without objects (longest %.2f s), %d of dead reckoning (longest %.2f s), %d "
+        "divergences, %d resets (run.json \"faults\")\n",
         f.imu_gaps, f.imu_gap_max_s, f.frame_gaps, f.frame_gap_max_s, f.blind_stretches,
-        f.blind_max_s, f.divergences, f.resets);
+        f.blind_max_s, f.dead_reckoning_stretches, f.dead_reckoning_max_s, f.divergences, f.resets);
   }
   for (const std::string& w : f.warnings) std::fprintf(stderr, "fsp: warning: %s\n", w.c_str());
   if (!r.frontend_stages.empty()) {

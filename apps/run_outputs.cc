@@ -203,6 +203,8 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
                  {"frame_gap_max_s", s.frame_gap_max_s},
                  {"blind_stretches", s.blind_stretches},
                  {"blind_max_s", s.blind_max_s},
+                 {"dead_reckoning_stretches", s.dead_reckoning_stretches},
+                 {"dead_reckoning_max_s", s.dead_reckoning_max_s},
                  {"divergences", s.divergences},
                  {"resets", s.resets},
                  {"warnings", s.warnings}};

@@ -163,6 +163,29 @@ void Estimator::Impl::NoteFrame(int64_t t_ns, bool sees_objects, bool end) {
   last_seen_t = t_ns;
 }
 
+void Estimator::Impl::NoteSight(int64_t t_ns, bool sees, bool end) {
+  // A static start holds still until the points have parallax: not dead reckoning.
+  if (!sees && !end) {
+    if (!unseen_since_t && (seen_once || summary.init_method != "static")) unseen_since_t = t_ns;
+    return;
+  }
+  seen_once = true;
+  if (!unseen_since_t) return;
+  const double s = NsToSeconds(t_ns - *unseen_since_t);
+  if (s >= options.faults.blind_s) {
+    ++summary.dead_reckoning_stretches;
+    summary.dead_reckoning_max_s = std::max(summary.dead_reckoning_max_s, s);
+    char what[200];
+    std::snprintf(
+        what, sizeof(what),
+        "nothing tracked for %.2f s (since t=%.2f s: no object, no point with a depth)%s: "
+        "IMU dead reckoning, whose position error grows with the square of the time",
+        s, NsToSeconds(*unseen_since_t), end ? " to the end" : "");
+    Warn(t_ns, what);
+  }
+  unseen_since_t.reset();
+}
+
 bool Estimator::Impl::Still(const Keyframe& prev, const Keyframe& kf) const {
   const ZeroVelocityOptions& z = options.zero_velocity;
   if (!z.enabled) return false;
@@ -380,8 +403,12 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
         Restart(global_rejected_why);
       }
     }
-    if (keyframes.back()->keyframe && !keyframes.back()->points.empty())
-      AddPointViews(keyframes.back().get());
+    Keyframe* newest = keyframes.back().get();
+    if (newest->keyframe && !newest->points.empty()) AddPointViews(newest);
+    // (Held still, the zero-velocity prior holds it: no dead reckoning.)
+    if (newest->keyframe && UsePoints())
+      NoteSight(newest->state.t_ns,
+                !newest->observations.empty() || newest->points_only || newest->still);
     SolveWindow(options.window_max_iterations);
     const auto in_window = [this] {
       return static_cast<int>(keyframes.size() - window_begin) -
@@ -460,7 +487,10 @@ void Estimator::Finish() {
                                    "last attempt: " +
                                        d.summary.init_last_refusal;
   }
-  if (d.last_frame_t) d.NoteFrame(*d.last_frame_t, true, /*end=*/true);
+  if (d.last_frame_t) {
+    d.NoteFrame(*d.last_frame_t, true, /*end=*/true);
+    d.NoteSight(*d.last_frame_t, false, /*end=*/true);
+  }
   if (!d.summary.initialized) return;
   if (d.options.mode == EstimatorMode::kBatch) {
     d.SolveBatch();

@@ -118,6 +118,7 @@ struct PointTrack {
   Keyframe* anchor = nullptr;
   Vec3 bearing_F = Vec3::UnitZ();  // (x, y, 1), the anchor view's normalised bearing
   double rho = 0.0;                // inverse depth along F's optical axis [1/m]
+  double sigma_scale = 1.0;        // PointObservation::sigma_scale
 };
 
 using Keyframes = std::deque<std::unique_ptr<Keyframe>>;
@@ -208,6 +209,10 @@ struct Estimator::Impl {
   // of the last frame with an observation (or of the first frame).
   int64_t counted_imu_hole_from = -1;
   std::optional<int64_t> last_frame_t, last_seen_t;
+  // With points: the first keyframe of the current stretch that saw neither an object nor a
+  // live point (none: the last keyframe saw something).
+  std::optional<int64_t> unseen_since_t;
+  bool seen_once = false;  // a keyframe saw an object or a live point
 
   PoseManifold pose_manifold;
   ceres::EigenQuaternionManifold quat_manifold;
@@ -238,6 +243,9 @@ struct Estimator::Impl {
   // Frame gaps and stretches without any object in view (counted and warned; `end`: the sequence
   // ended at t_ns, only the trailing stretch is examined).
   void NoteFrame(int64_t t_ns, bool sees_objects, bool end = false);
+  // With points: stretches of keyframes that saw neither an object nor a live point, the IMU
+  // alone (counted and warned as dead reckoning; `end`: the sequence ended at t_ns).
+  void NoteSight(int64_t t_ns, bool sees, bool end = false);
 
   void Warn(int64_t t_ns, const std::string& what) {
     if (static_cast<int>(summary.warnings.size()) >= EstimatorSummary::kMaxWarnings) return;
@@ -284,6 +292,8 @@ struct Estimator::Impl {
   // window (triangulated, longest-tracked first, up to max_points live).
   void AddPointViews(Keyframe* kf);
   bool TriangulatePoint(PointTrack* t) const;
+  // The factor options of a point's views: points.sigma_px times its sigma_scale.
+  FspFactorOptions PointFactorOptions(const PointTrack& t) const;
   // Factors of every live point's views (not the anchor's) into a window problem, with ρ bounded
   // to the depth range.
   void AddPointFactors(ceres::Problem* problem);

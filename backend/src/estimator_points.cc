@@ -48,15 +48,18 @@ Vec3 Bearing(const Mat3& K, const Vec2& uv) {
 void Estimator::Impl::AddPointViews(Keyframe* kf) {
   for (const PointObservation& p : kf->points) {
     PointTrack& t = point_tracks[p.point_id];
+    if (t.views.empty()) t.sigma_scale = std::max(1.0, p.sigma_scale);
     t.views.push_back({kf, p.uv_undistorted});
     ++t.keyframes_seen;
   }
-  // Candidates: seen now, by enough keyframes, never in before; longest-tracked first.
+  // Candidates: seen now, by enough keyframes, never in before; longest-tracked first, until the
+  // keyframe sees max_points live ones (points out of view stay live until their anchor leaves:
+  // counted over the window, they kept the new view's points out after a turn).
   const PointOptions& o = options.points;
   int live = 0;
   std::vector<std::pair<int, int64_t>> candidates;  // (-views, id)
   for (const auto& [id, t] : point_tracks) {
-    if (t.live) ++live;
+    if (t.live && t.views.back().kf == kf) ++live;
     if (!t.live && !t.dead && t.views.back().kf == kf &&
         static_cast<int>(t.views.size()) >= o.min_views)
       candidates.emplace_back(-static_cast<int>(t.views.size()), id);
@@ -122,12 +125,17 @@ bool Estimator::Impl::TriangulatePoint(PointTrack* t) const {
   return true;
 }
 
+FspFactorOptions Estimator::Impl::PointFactorOptions(const PointTrack& t) const {
+  FspFactorOptions fo = options.factor;
+  fo.sigma_px = options.points.sigma_px * t.sigma_scale;
+  return fo;
+}
+
 void Estimator::Impl::AddPointFactors(ceres::Problem* problem) {
   const PointOptions& o = options.points;
-  FspFactorOptions fo = options.factor;
-  fo.sigma_px = o.sigma_px;
   for (auto& [id, t] : point_tracks) {
     if (!t.live) continue;
+    const FspFactorOptions fo = PointFactorOptions(t);
     const Rigid3 T_W_F = CameraPose(*t.anchor);
     bool added = false;
     for (const PointTrack::View& v : t.views) {
@@ -148,13 +156,12 @@ void Estimator::Impl::AddPointFactors(ceres::Problem* problem) {
 
 void Estimator::Impl::AddPointFactorsOf(ceres::Problem* problem, Keyframe* kf) {
   const PointOptions& o = options.points;
-  FspFactorOptions fo = options.factor;
-  fo.sigma_px = o.sigma_px;
   for (const PointObservation& p : kf->points) {
     auto it = point_tracks.find(p.point_id);
     if (it == point_tracks.end() || !it->second.live) continue;
     PointTrack& t = it->second;
     if (t.anchor == kf) continue;
+    const FspFactorOptions fo = PointFactorOptions(t);
     const Rigid3 T_W_F = CameraPose(*t.anchor);
     if (!(PredictPoint(K, CameraPose(*kf), T_W_F, t.bearing_F, t.rho).h_z > fo.min_h_z)) continue;
     problem->AddParameterBlock(t.anchor->state.pose, kPoseSize, &pose_manifold);
@@ -168,12 +175,11 @@ std::vector<ResidualBlockInput> Estimator::Impl::AddPointFactorsOf(
     Keyframe* old, std::vector<std::unique_ptr<ceres::CostFunction>>* costs,
     std::vector<std::unique_ptr<ceres::LossFunction>>* losses) {
   const PointOptions& o = options.points;
-  FspFactorOptions fo = options.factor;
-  fo.sigma_px = o.sigma_px;
   std::vector<ResidualBlockInput> inputs;
   const Rigid3 T_W_F = CameraPose(*old);
   for (auto& [id, t] : point_tracks) {
     if (!t.live || t.anchor != old) continue;
+    const FspFactorOptions fo = PointFactorOptions(t);
     for (const PointTrack::View& v : t.views) {
       if (v.kf == old) continue;
       if (!(PredictPoint(K, CameraPose(*v.kf), T_W_F, t.bearing_F, t.rho).h_z > fo.min_h_z))

@@ -16,6 +16,7 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "fsp/backend/imu_preintegration.h"
+#include "fsp/common/median.h"
 
 namespace fsp::backend {
 
@@ -174,7 +175,18 @@ std::string Fmt(const char* fmt, double a, double b = 0.0, double c = 0.0) {
 
 VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
                                 const std::vector<ImuSample>& imu, const Mat3& K,
-                                const Rigid3& T_B_C, const VisualSfmOptions& o) {
+                                const Rigid3& T_B_C, const VisualSfmOptions& options) {
+  // The thresholds on the points' noise, in the points' own pixel noise (the median
+  // PointObservation::sigma_scale: 2 for a 1280x720 camera tracked at 640x360).
+  std::vector<double> scales;
+  for (const SfmFrame& fr : frames)
+    for (const PointObservation& p : fr.points) scales.push_back(p.sigma_scale);
+  const double noise = std::max(1.0, scales.empty() ? 1.0 : Median(scales));
+  VisualSfmOptions o = options;
+  o.ransac_px *= noise;
+  o.max_reprojection_px *= noise;
+  o.max_rms_px *= noise;
+  o.huber_px *= noise;
   VisualSfmSummary out;
   if (frames.size() < 3) {
     out.reason = "too few frames";

@@ -29,6 +29,11 @@ bool PointTrackerOptions::Check(std::string* why) const {
     return fail("refill_fraction must be in (0, 1]");
   if (empty_cell_retry_frames < 0) return fail("empty_cell_retry_frames must be >= 0");
   if (!(min_corner_gradient >= 0.0)) return fail("min_corner_gradient must be >= 0");
+  if (!(faint_corner_gradient >= 0.0) || faint_corner_gradient > min_corner_gradient)
+    return fail("faint_corner_gradient must be in [0, min_corner_gradient]");
+  if (!(faint_below_fraction >= 0.0 && faint_below_fraction <= 1.0))
+    return fail("faint_below_fraction must be in [0, 1]");
+  if (!(faint_sigma_scale >= 1.0)) return fail("faint_sigma_scale must be >= 1");
   if (subpixel_px < 0 || subpixel_px > 10) return fail("subpixel_px must be in [0, 10]");
   if (!(border_px >= 0.0)) return fail("border_px must be >= 0");
   if (lk_window < 5 || lk_window % 2 == 0) return fail("lk_window must be odd and >= 5");
@@ -48,6 +53,7 @@ struct PointTracker::Impl {
     cv::Point2f px;           // distorted px of the working level
     Vec2 und = Vec2::Zero();  // undistorted px
     int age = 0;
+    bool faint = false;  // found at faint_corner_gradient
   };
 
   PinholeRadtan camera;
@@ -69,6 +75,7 @@ struct PointTracker::Impl {
   int frame_index = 0;
   std::vector<int> retry_at;         // per cell: the first frame it is searched again
   std::vector<uint8_t> textureless;  // per cell: its last search found no corner, no point since
+  std::vector<int> faint_retry_at;   // per cell: the first frame it is searched again, faint
 
   Impl(const PinholeRadtan& cam, const Options& opt) : camera(cam), o(opt) {
     distorted = camera.HasDistortion();
@@ -91,6 +98,7 @@ struct PointTracker::Impl {
     overflow_capacity = std::max(1, static_cast<int>(std::lround(o.cell_overflow * capacity)));
     retry_at.assign(cols * rows, 0);
     textureless.assign(cols * rows, 0);
+    faint_retry_at.assign(cols * rows, 0);
   }
 
   // Working px <-> undistorted full-resolution px.
@@ -176,11 +184,14 @@ void PointTracker::Impl::Flow(const std::vector<cv::Mat>& levels,
   for (size_t i = 0; i < n; ++i) back[i] = p1[i] - shift[i];
   cv::calcOpticalFlowPyrLK(levels, prev_levels, p1, back, st_back, err, win, o.lk_levels, crit,
                            cv::OPTFLOW_USE_INITIAL_FLOW);
-  const double fb2 = o.max_fb_error_px * o.max_fb_error_px;
   keep->assign(n, 0);
   for (size_t i = 0; i < n; ++i) {
+    // A faint point's flow is noisier (LK's error grows as the gradient falls): its way back is
+    // allowed the gradients' ratio more.
+    const double fb = o.max_fb_error_px *
+                      (points[i].faint ? o.min_corner_gradient / o.faint_corner_gradient : 1.0);
     const cv::Point2f d = back[i] - p0[i];
-    (*keep)[i] = st[i] && st_back[i] && d.x * d.x + d.y * d.y <= fb2 && Inside(p1[i]);
+    (*keep)[i] = st[i] && st_back[i] && d.x * d.x + d.y * d.y <= fb * fb && Inside(p1[i]);
   }
   *p1_out = std::move(p1);
 }
@@ -365,15 +376,28 @@ int PointTracker::Impl::Detect(const cv::Mat& gray) {
     ++count[CellOf(p.px.x, p.px.y)];
     if (radius > 0) cv::circle(mask, cv::Point(cvRound(p.px.x), cvRound(p.px.y)), radius, 0, -1);
   }
-  // Two passes over the cells short of points, the neediest first: up to each cell's share, then
-  // (budget left: cells without texture) up to cell_overflow shares.
+  // Passes over the cells short of points, the neediest first: up to each cell's share, then
+  // (budget left: cells without texture) up to cell_overflow shares; then, at the faint threshold,
+  // up to its share in each cell where the first threshold found nothing.
   int budget = max_points - live, added = 0;
   constexpr int kContext = 4;  // image around a cell for the eigenvalues' block and the maxima
-  for (const bool overflow : {false, true}) {
-    const int cap = overflow ? SharedCapacity() : capacity;
+  std::vector<uint8_t> bare(cols * rows, 0);  // the first threshold found no corner there
+  struct Pass {
+    bool overflow, faint;
+  };
+  for (const Pass pass : {Pass{false, false}, Pass{true, false}, Pass{false, true}}) {
+    if (pass.faint &&
+        !(o.faint_corner_gradient > 0.0 && live + added < o.faint_below_fraction * max_points))
+      break;
+    const int cap = pass.overflow ? SharedCapacity() : capacity;
     std::vector<int> cells;
-    for (int c = 0; c < cols * rows; ++c)
-      if (count[c] < cap && retry_at[c] <= frame_index) cells.push_back(c);
+    for (int c = 0; c < cols * rows; ++c) {
+      if (count[c] >= cap) continue;
+      if (pass.faint ? (bare[c] && faint_retry_at[c] <= frame_index) : retry_at[c] <= frame_index)
+        cells.push_back(c);
+      else if (!pass.faint && count[c] == 0)
+        bare[c] = 1;  // searched in vain within empty_cell_retry_frames
+    }
     std::stable_sort(cells.begin(), cells.end(), [&](int a, int c) { return count[a] < count[c]; });
     for (const int c : cells) {
       if (budget <= 0) break;
@@ -385,18 +409,26 @@ int PointTracker::Impl::Detect(const cv::Mat& gray) {
       const cv::Rect in_roi(cell.x - roi.x, cell.y - roi.y, cell.width, cell.height);
       mask(cell).copyTo(cell_mask(in_roi));
       const std::vector<cv::Point2f> found =
-          ShiTomasiCorners(gray(roi), cell_mask, o.min_distance_px, o.min_corner_gradient,
+          ShiTomasiCorners(gray(roi), cell_mask, o.min_distance_px,
+                           pass.faint ? o.faint_corner_gradient : o.min_corner_gradient,
                            std::min(cap - count[c], budget));
-      textureless[c] = found.empty() && count[c] == 0;
       if (found.empty()) {
-        retry_at[c] = frame_index + o.empty_cell_retry_frames;
+        if (pass.faint) {
+          faint_retry_at[c] = frame_index + o.empty_cell_retry_frames;
+        } else {
+          textureless[c] = count[c] == 0;
+          bare[c] = count[c] == 0;
+          retry_at[c] = frame_index + o.empty_cell_retry_frames;
+        }
         continue;
       }
+      if (!pass.faint) textureless[c] = 0;
       for (const cv::Point2f& f : found) {
         Point p;
         p.id = next_id++;
         p.px = cv::Point2f(f.x + roi.x, f.y + roi.y);
         p.age = 0;
+        p.faint = pass.faint;
         points.push_back(p);
         if (radius > 0)
           cv::circle(mask, cv::Point(cvRound(p.px.x), cvRound(p.px.y)), radius, 0, -1);
@@ -473,6 +505,7 @@ PointTrackerResult PointTracker::Impl::Track(const cv::Mat& gray,
     obs.point_id = p.id;
     obs.uv_undistorted = p.und;
     obs.age = p.age;
+    obs.sigma_scale = scale * (p.faint ? o.faint_sigma_scale : 1.0);
     r.points.push_back(obs);
     r.points_px.emplace_back(scale * p.px.x, scale * p.px.y);
   }

@@ -152,9 +152,37 @@ TEST(EstimatorPoints, PointsAloneKeepAFlightBounded) {
           : 0.0,
       with.summary.resets);
   EXPECT_EQ(with.summary.resets, 0);
+  EXPECT_EQ(with.summary.dead_reckoning_stretches, 0);  // the still start is not one
   EXPECT_GT(with.summary.points_used, 100);
   EXPECT_LT(with.max_error_m, 0.05);  // measured 1.2 cm (IMU alone 46 cm)
   EXPECT_GT(without.max_error_m, 3.0 * with.max_error_m);
+}
+
+// 3 s in which the front end tracks nothing (a plain wall): the run goes on, and says that it
+// dead-reckoned, when and for how long.
+TEST(EstimatorPoints, StretchWithoutPointsIsReportedAsDeadReckoning) {
+  PointFlight f = MakePointFlight(3);
+  for (size_t k = 0; k < f.frame_t.size(); ++k) {
+    if (f.frame_t[k] >= 6'000'000'000 && f.frame_t[k] < 9'000'000'000) f.points[k].clear();
+    // A front end that lost every point starts new tracks (ids are never reused).
+    if (f.frame_t[k] >= 9'000'000'000)
+      for (PointObservation& p : f.points[k]) p.point_id += 1'000'000;
+  }
+  const FlightResult r = RunFlight(f, EstimatorOptions(), /*give_points=*/true);
+  ASSERT_TRUE(r.summary.initialized) << r.summary.init_failure;
+  std::printf(
+      "3 s without points: max error %.3f m, %d stretch(es) of dead reckoning, longest %.2f s\n",
+      r.max_error_m, r.summary.dead_reckoning_stretches, r.summary.dead_reckoning_max_s);
+  EXPECT_EQ(r.summary.dead_reckoning_stretches, 1);
+  // From the first keyframe without a live point to the first with one again (new points need
+  // min_parallax_deg before they have a depth).
+  EXPECT_GE(r.summary.dead_reckoning_max_s, 3.0);
+  EXPECT_LE(r.summary.dead_reckoning_max_s, 4.0);
+  bool warned = false;
+  for (const std::string& w : r.summary.warnings)
+    warned |= w.find("nothing tracked for") != std::string::npos &&
+              w.find("IMU dead reckoning") != std::string::npos;
+  EXPECT_TRUE(warned);
 }
 
 // Points given with the option off: the same bytes as no points at all.

@@ -191,7 +191,7 @@ struct PointOptions {
   // room), and its robust loss (k_sigma in σ units, per coordinate, as RobustLossOptions).
   double sigma_px = 1.0;
   RobustLossOptions robust{RobustLossOptions::Type::kHuber, 1.5};
-  // Live points in the window at most; new ones enter longest-tracked first. More: more
+  // Live points a keyframe sees at most; new ones enter longest-tracked first. More: more
   // constraints, more CPU per keyframe (each point a parameter and ~2 residuals per keyframe).
   int max_points = 150;
   // A point enters once seen by at least min_views keyframes whose rays (first and newest view,
@@ -453,6 +453,10 @@ struct EstimatorSummary {
   double frame_gap_max_s = 0.0;
   int blind_stretches = 0;
   double blind_max_s = 0.0;
+  // With points: stretches of at least faults.blind_s without an object or a live point (the IMU
+  // alone).
+  int dead_reckoning_stretches = 0;
+  double dead_reckoning_max_s = 0.0;
   int divergences = 0;
   int resets = 0;
   // Global step (window mode, GlobalOptions): solves, their time and iterations, the keyframes of

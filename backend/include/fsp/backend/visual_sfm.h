@@ -57,7 +57,9 @@ struct VisualSfmOptions {
   // [s] (the acceleration must show).
   int min_keyframes = 4;
   double min_span_s = 1.0;
-  // RANSAC threshold of the essential matrix and PnP [px].
+  // RANSAC threshold of the essential matrix and PnP [px]. This and max_reprojection_px,
+  // max_rms_px, huber_px are for points of unit PointObservation::sigma_scale: they are multiplied
+  // by the buffer's median sigma_scale (2 for a 1280x720 camera tracked at 640x360).
   double ransac_px = 1.0;
   // The essential matrix's rotation may differ from the gyroscope's by this [deg], plus
   // max_gyro_bias x the interval (the bias is not known yet).

@@ -87,6 +87,10 @@ struct PointObservation {
   int64_t point_id = -1;
   Vec2 uv_undistorted = Vec2::Zero();  // UNDISTORTED pixels (the back end's, as Corners)
   int age = 0;  // frames the point was tracked through before this one (0: detected in this frame)
+  // Its pixel noise relative to a well-textured point's tracked at full resolution: the tracker's
+  // working level's scale (2 for 1280x720 tracked at 640x360), times more for a point found on
+  // faint texture (the flow's error grows as the texture's gradient falls).
+  double sigma_scale = 1.0;
 };
 
 // What the back end and the IMU expect of the next frame, handed to the front end (the front end
