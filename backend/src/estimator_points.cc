@@ -54,7 +54,7 @@ void Estimator::Impl::AddPointViews(Keyframe* kf) {
   }
   // Candidates: seen now, by enough keyframes, never in before; longest-tracked first, until the
   // keyframe sees max_points live ones (points out of view stay live until their anchor leaves:
-  // counted over the window, they kept the new view's points out after a turn).
+  // counted over the window, they would keep a new view's points out after a turn).
   const PointOptions& o = options.points;
   int live = 0;
   std::vector<std::pair<int, int64_t>> candidates;  // (-views, id)
