@@ -118,6 +118,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.point_init.sfm.min_parallax_px", &e.point_init.sfm.min_parallax_px, kPositive},
       {"estimator.point_init.sfm.min_points", &e.point_init.sfm.min_points, kAtLeastOne},
       {"estimator.point_init.sfm.min_pnp_points", &e.point_init.sfm.min_pnp_points, kAtLeastOne},
+      {"estimator.point_init.sfm.max_pairs", &e.point_init.sfm.max_pairs, kAtLeastOne},
       {"estimator.point_init.sfm.min_keyframes", &e.point_init.sfm.min_keyframes, kAtLeastOne},
       {"estimator.point_init.sfm.min_span_s", &e.point_init.sfm.min_span_s, kNonNegative},
       {"estimator.point_init.sfm.keyframe_min_tracked", &e.point_init.sfm.keyframe_min_tracked,

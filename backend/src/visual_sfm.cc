@@ -9,6 +9,7 @@
 #include <sstream>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include <ceres/ceres.h>
 #include <Eigen/Dense>
@@ -24,8 +25,8 @@ bool VisualSfmOptions::Check(std::string* why) const {
   std::ostringstream os;
   if (!(keyframe_parallax_px > 0.0) || !(max_keyframe_interval_s > 0.0) || !(min_parallax_px > 0.0))
     os << "keyframe_parallax_px, max_keyframe_interval_s and min_parallax_px must be > 0";
-  else if (min_points < 8 || min_pnp_points < 6 || min_keyframes < 3)
-    os << "min_points must be >= 8, min_pnp_points >= 6, min_keyframes >= 3";
+  else if (min_points < 8 || min_pnp_points < 6 || min_keyframes < 3 || max_pairs < 1)
+    os << "min_points must be >= 8, min_pnp_points >= 6, min_keyframes >= 3, max_pairs >= 1";
   else if (!(ransac_px > 0.0) || !(max_reprojection_px > 0.0) || !(max_rms_px > 0.0) ||
            !(huber_px > 0.0))
     os << "ransac_px, max_reprojection_px, max_rms_px and huber_px must be > 0";
@@ -171,91 +172,30 @@ std::string Fmt(const char* fmt, double a, double b = 0.0, double c = 0.0) {
   return buf;
 }
 
-}  // namespace
+// What every attempt from an initial pair shares.
+struct SfmInput {
+  const std::vector<SfmFrame>* frames = nullptr;
+  std::vector<PointMap> px;  // per frame
+  std::vector<size_t> kf;    // keyframe slot -> frame
+  Mat3 Kinv;
+  double f = 0.0;
+  Mat3 R_B_C;
+  std::vector<Mat3> R_B0_B;  // the gyroscope's body rotation at each frame (bias 0)
+  VisualSfmOptions o;        // the thresholds in the points' pixels
 
-VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
-                                const std::vector<ImuSample>& imu, const Mat3& K,
-                                const Rigid3& T_B_C, const VisualSfmOptions& options) {
-  // The thresholds on the points' noise, in the points' own pixel noise (the median
-  // PointObservation::sigma_scale: 2 for a 1280x720 camera tracked at 640x360).
-  std::vector<double> scales;
-  for (const SfmFrame& fr : frames)
-    for (const PointObservation& p : fr.points) scales.push_back(p.sigma_scale);
-  const double noise = std::max(1.0, scales.empty() ? 1.0 : Median(scales));
-  VisualSfmOptions o = options;
-  o.ransac_px *= noise;
-  o.max_reprojection_px *= noise;
-  o.max_rms_px *= noise;
-  o.huber_px *= noise;
-  VisualSfmSummary out;
-  if (frames.size() < 3) {
-    out.reason = "too few frames";
-    return out;
-  }
-  const Mat3 Kinv = K.inverse();
-  const double f = K(0, 0);
-  const Mat3 R_B_C = T_B_C.R();
-  // The gyroscope's body rotation R_B0_Bk at each frame (bias 0).
-  std::vector<Mat3> R_B0_B(frames.size(), Mat3::Identity());
-  const PreintegrationOptions preint;
-  for (size_t k = 1; k < frames.size(); ++k) {
-    const int64_t t0 = frames[k - 1].t_ns, t1 = frames[k].t_ns;
-    const std::vector<ImuSample> s = ImuSamplesFor(imu, t0, t1);
-    Mat3 dR = Mat3::Identity();
-    if (!s.empty() && t1 > t0)
-      dR = ImuPreintegration(preint, s, t0, t1, Vec3::Zero(), Vec3::Zero())
-               .delta_R()
-               .toRotationMatrix();
-    R_B0_B[k] = R_B0_B[k - 1] * dR;
-  }
-  const auto R_Ca_Cb = [&](size_t a, size_t b) -> Mat3 {
+  Mat3 R_Ca_Cb(size_t a, size_t b) const {
     return R_B_C.transpose() * R_B0_B[a].transpose() * R_B0_B[b] * R_B_C;
-  };
-  std::vector<PointMap> px(frames.size());
-  for (size_t k = 0; k < frames.size(); ++k)
-    for (const PointObservation& p : frames[k].points) px[k][p.point_id] = p.uv_undistorted;
-
-  // 1. Keyframes.
-  std::vector<size_t> kf{0};
-  for (size_t k = 1; k < frames.size(); ++k) {
-    int shared = 0;
-    const double par =
-        MedianParallax(px[kf.back()], px[k], K, Kinv, R_Ca_Cb(kf.back(), k), &shared);
-    const double dt = 1e-9 * static_cast<double>(frames[k].t_ns - frames[kf.back()].t_ns);
-    const bool tracks_fading =
-        shared < o.keyframe_min_tracked * static_cast<double>(px[kf.back()].size());
-    if (par >= o.keyframe_parallax_px || dt >= o.max_keyframe_interval_s || tracks_fading ||
-        k + 1 == frames.size())
-      kf.push_back(k);
   }
-  out.keyframes = static_cast<int>(kf.size());
+};
 
-  // 2. The initial pair: of the keyframe pairs sharing min_points, the one with the most parallax.
-  int pa = -1, pb = -1, most_shared = 0;
-  for (size_t i = 0; i < kf.size(); ++i)
-    for (size_t j = i + 1; j < kf.size(); ++j) {
-      int shared = 0;
-      const double par = RotationFreeParallax(px[kf[i]], px[kf[j]], Kinv, f, &shared);
-      most_shared = std::max(most_shared, shared);
-      if (shared < o.min_points) break;  // later keyframes share fewer still
-      if (par > out.max_parallax_px) {
-        out.max_parallax_px = par;
-        std::tie(pa, pb) = std::pair<int, int>(static_cast<int>(i), static_cast<int>(j));
-      }
-    }
-  if (pa < 0 || out.max_parallax_px < o.min_parallax_px) {
-    out.reason = pa >= 0 ? Fmt("too little parallax: the largest median parallax no rotation "
-                               "explains, between two keyframes sharing %.0f points, is %.1f px "
-                               "(needs %.0f px)",
-                               o.min_points, out.max_parallax_px, o.min_parallax_px)
-                         : Fmt("too few points: two keyframes share at most %.0f points (needs "
-                               "%.0f)",
-                               most_shared, o.min_points);
-    return out;
-  }
-  out.pair_parallax_px = out.max_parallax_px;
-  out.pair_first = kf[pa];
-  out.pair_second = kf[pb];
+// Steps 2-4 from the keyframe pair (PA, PB): OUT filled, false with OUT->reason when it refuses.
+bool SolveFromPair(const SfmInput& in, int pa, int pb, VisualSfmSummary* out) {
+  const std::vector<SfmFrame>& frames = *in.frames;
+  const std::vector<PointMap>& px = in.px;
+  const std::vector<size_t>& kf = in.kf;
+  const Mat3& Kinv = in.Kinv;
+  const double f = in.f;
+  const VisualSfmOptions& o = in.o;
   std::vector<cv::Point2d> p0, p1;
   for (const auto& [id, uv] : px[kf[pb]]) {
     const auto it = px[kf[pa]].find(id);
@@ -268,8 +208,8 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
   cv::Mat mask;
   cv::Mat E = cv::findEssentialMat(p0, p1, I, cv::RANSAC, 0.999, o.ransac_px / f, 1000, mask);
   if (E.rows < 3 || E.cols != 3) {
-    out.reason = "the essential matrix failed";
-    return out;
+    out->reason = "the essential matrix failed";
+    return false;
   }
   cv::Mat Rcv, tcv;
   // The essential matrix's inliers in front of both cameras. recoverPose's default also drops
@@ -281,25 +221,25 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
   const int good =
       cv::recoverPose(E.rowRange(0, 3), p0, p1, I, Rcv, tcv, kFarBaselines, mask, cv::noArray());
   if (good < o.min_points) {
-    out.reason = Fmt("too few points agree with the essential matrix (%.0f of %.0f, needs %.0f)",
-                     good, static_cast<double>(p0.size()), o.min_points);
-    return out;
+    out->reason = Fmt("too few points agree with the essential matrix (%.0f of %.0f, needs %.0f)",
+                      good, static_cast<double>(p0.size()), o.min_points);
+    return false;
   }
   Mat3 R_C1_C0;
   Vec3 t_C1_C0;
   cv::cv2eigen(Rcv, R_C1_C0);
   cv::cv2eigen(tcv, t_C1_C0);
   {
-    const Mat3 gyro = R_Ca_Cb(kf[pa], kf[pb]);  // R_C0_C1
-    out.rotation_error_deg = LogSO3(gyro * R_C1_C0).norm() / kDeg;
+    const Mat3 gyro = in.R_Ca_Cb(kf[pa], kf[pb]);  // R_C0_C1
+    out->rotation_error_deg = LogSO3(gyro * R_C1_C0).norm() / kDeg;
     const double dt = 1e-9 * static_cast<double>(frames[kf[pb]].t_ns - frames[kf[pa]].t_ns);
     const double allowed = o.max_rotation_error_deg + o.max_gyro_bias * dt / kDeg;
-    if (!(out.rotation_error_deg <= allowed)) {
-      out.reason =
+    if (!(out->rotation_error_deg <= allowed)) {
+      out->reason =
           Fmt("the essential matrix's rotation disagrees with the gyroscope's by %.1f deg "
               "(allowed %.1f deg)",
-              out.rotation_error_deg, allowed);
-      return out;
+              out->rotation_error_deg, allowed);
+      return false;
     }
   }
 
@@ -366,15 +306,15 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
   const double span_s =
       1e-9 * static_cast<double>(frames[kf[posed.back()]].t_ns - frames[kf[posed.front()]].t_ns);
   if (!(span_s >= o.min_span_s)) {
-    out.reason = Fmt("the keyframes posed span %.2f s only (needs %.2f s): the tracks broke",
-                     span_s, o.min_span_s);
-    return out;
+    out->reason = Fmt("the keyframes posed span %.2f s only (needs %.2f s): the tracks broke",
+                      span_s, o.min_span_s);
+    return false;
   }
   if (static_cast<int>(posed.size()) < o.min_keyframes) {
-    out.reason =
+    out->reason =
         Fmt("too few keyframes posed (%.0f of %.0f, needs %.0f)", static_cast<double>(posed.size()),
             static_cast<double>(kf.size()), o.min_keyframes);
-    return out;
+    return false;
   }
 
   // 4. Bundle adjustment.
@@ -402,9 +342,9 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
     }
   }
   if (static_cast<int>(used.size()) < o.min_points) {
-    out.reason = Fmt("too few points triangulated (%.0f, needs %.0f)",
-                     static_cast<double>(used.size()), o.min_points);
-    return out;
+    out->reason = Fmt("too few points triangulated (%.0f, needs %.0f)",
+                      static_cast<double>(used.size()), o.min_points);
+    return false;
   }
   for (int s : posed) problem.SetManifold(q[s].data(), &quat);
   problem.SetParameterBlockConstant(q[pa].data());
@@ -433,25 +373,135 @@ VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
         ++n;
       }
     }
-    out.points_S.push_back(tr->X);
+    out->points_S.push_back(tr->X);
     if (tr->X.z() > 0.0) depths.push_back(tr->X.z());
   }
-  out.rms_px = n > 0 ? std::sqrt(sum / n) : 0.0;
+  out->rms_px = n > 0 ? std::sqrt(sum / n) : 0.0;
   if (!depths.empty()) {
     std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
-    out.median_depth = depths[depths.size() / 2];
+    out->median_depth = depths[depths.size() / 2];
   }
-  if (!summary.IsSolutionUsable() || !(out.rms_px <= o.max_rms_px)) {
-    out.reason =
-        Fmt("the bundle adjustment leaves %.2f px RMS (allowed %.2f)", out.rms_px, o.max_rms_px);
-    return out;
+  if (!summary.IsSolutionUsable() || !(out->rms_px <= o.max_rms_px)) {
+    out->reason =
+        Fmt("the bundle adjustment leaves %.2f px RMS (allowed %.2f)", out->rms_px, o.max_rms_px);
+    return false;
   }
   for (int s : posed) {
-    out.frames.push_back(kf[s]);
-    out.T_S_C.push_back(T_C_S[s].T_C_S.Inverse());
+    out->frames.push_back(kf[s]);
+    out->T_S_C.push_back(T_C_S[s].T_C_S.Inverse());
   }
-  out.success = true;
-  return out;
+  out->success = true;
+  return true;
+}
+
+}  // namespace
+
+VisualSfmSummary SolveVisualSfm(const std::vector<SfmFrame>& frames,
+                                const std::vector<ImuSample>& imu, const Mat3& K,
+                                const Rigid3& T_B_C, const VisualSfmOptions& options) {
+  VisualSfmSummary out;
+  if (frames.size() < 3) {
+    out.reason = "too few frames";
+    return out;
+  }
+  SfmInput in;
+  in.frames = &frames;
+  in.Kinv = K.inverse();
+  in.f = K(0, 0);
+  in.R_B_C = T_B_C.R();
+  // The thresholds on the points' noise, in the points' own pixel noise (the median
+  // PointObservation::sigma_scale: 2 for a 1280x720 camera tracked at 640x360).
+  std::vector<double> scales;
+  for (const SfmFrame& fr : frames)
+    for (const PointObservation& p : fr.points) scales.push_back(p.sigma_scale);
+  const double noise = std::max(1.0, scales.empty() ? 1.0 : Median(scales));
+  VisualSfmOptions& o = in.o;
+  o = options;
+  o.ransac_px *= noise;
+  o.max_reprojection_px *= noise;
+  o.max_rms_px *= noise;
+  o.huber_px *= noise;
+  in.R_B0_B.assign(frames.size(), Mat3::Identity());
+  const PreintegrationOptions preint;
+  for (size_t k = 1; k < frames.size(); ++k) {
+    const int64_t t0 = frames[k - 1].t_ns, t1 = frames[k].t_ns;
+    const std::vector<ImuSample> s = ImuSamplesFor(imu, t0, t1);
+    Mat3 dR = Mat3::Identity();
+    if (!s.empty() && t1 > t0)
+      dR = ImuPreintegration(preint, s, t0, t1, Vec3::Zero(), Vec3::Zero())
+               .delta_R()
+               .toRotationMatrix();
+    in.R_B0_B[k] = in.R_B0_B[k - 1] * dR;
+  }
+  std::vector<PointMap>& px = in.px;
+  px.resize(frames.size());
+  for (size_t k = 0; k < frames.size(); ++k)
+    for (const PointObservation& p : frames[k].points) px[k][p.point_id] = p.uv_undistorted;
+
+  // 1. Keyframes.
+  std::vector<size_t>& kf = in.kf;
+  kf.push_back(0);
+  for (size_t k = 1; k < frames.size(); ++k) {
+    int shared = 0;
+    const double par =
+        MedianParallax(px[kf.back()], px[k], K, in.Kinv, in.R_Ca_Cb(kf.back(), k), &shared);
+    const double dt = 1e-9 * static_cast<double>(frames[k].t_ns - frames[kf.back()].t_ns);
+    const bool tracks_fading =
+        shared < o.keyframe_min_tracked * static_cast<double>(px[kf.back()].size());
+    if (par >= o.keyframe_parallax_px || dt >= o.max_keyframe_interval_s || tracks_fading ||
+        k + 1 == frames.size())
+      kf.push_back(k);
+  }
+  out.keyframes = static_cast<int>(kf.size());
+
+  // 2. The candidate pairs: keyframes sharing min_points with min_parallax_px, most parallax first.
+  struct Candidate {
+    double parallax_px;
+    int a, b;
+  };
+  std::vector<Candidate> candidates;
+  int most_shared = 0;
+  for (size_t i = 0; i < kf.size(); ++i)
+    for (size_t j = i + 1; j < kf.size(); ++j) {
+      int shared = 0;
+      const double par = RotationFreeParallax(px[kf[i]], px[kf[j]], in.Kinv, in.f, &shared);
+      most_shared = std::max(most_shared, shared);
+      if (shared < o.min_points) break;  // later keyframes share fewer still
+      out.max_parallax_px = std::max(out.max_parallax_px, par);
+      if (par >= o.min_parallax_px)
+        candidates.push_back({par, static_cast<int>(i), static_cast<int>(j)});
+    }
+  if (candidates.empty()) {
+    out.reason = most_shared >= o.min_points
+                     ? Fmt("too little parallax: the largest median parallax no rotation "
+                           "explains, between two keyframes sharing %.0f points, is %.1f px "
+                           "(needs %.0f px)",
+                           o.min_points, out.max_parallax_px, o.min_parallax_px)
+                     : Fmt("too few points: two keyframes share at most %.0f points (needs "
+                           "%.0f)",
+                           most_shared, o.min_points);
+    return out;
+  }
+  std::stable_sort(
+      candidates.begin(), candidates.end(),
+      [](const Candidate& x, const Candidate& y) { return x.parallax_px > y.parallax_px; });
+  // 3.-4. From each candidate in turn until one succeeds; a refusal reports the first's reason.
+  const size_t tries = std::min<size_t>(candidates.size(), std::max(1, o.max_pairs));
+  VisualSfmSummary first;
+  for (size_t c = 0; c < tries; ++c) {
+    VisualSfmSummary attempt = out;
+    attempt.pair_parallax_px = candidates[c].parallax_px;
+    attempt.pair_first = kf[candidates[c].a];
+    attempt.pair_second = kf[candidates[c].b];
+    attempt.pairs_tried = static_cast<int>(c + 1);
+    if (SolveFromPair(in, candidates[c].a, candidates[c].b, &attempt)) return attempt;
+    if (c == 0) first = std::move(attempt);
+  }
+  if (tries > 1)
+    first.reason +=
+        Fmt(" (and the %.0f next pairs by parallax refused too)", static_cast<double>(tries - 1));
+  first.pairs_tried = static_cast<int>(tries);
+  return first;
 }
 
 }  // namespace fsp::backend

@@ -6,6 +6,7 @@
 // in view.
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <random>
 #include <vector>
 
@@ -183,6 +184,64 @@ TEST(PointInit, DistantPointsAgreeWithTheEssentialMatrix) {
               s.sfm.pair_parallax_px);
   EXPECT_TRUE(s.success) << s.reason;
   EXPECT_EQ(s.reason.find("agree with the essential matrix"), std::string::npos) << s.reason;
+}
+
+// The pair with the most parallax is not always the one to start from. Tracks here live 1.2 s
+// (as on the DM-VIO walk's fast turns: a third of the points lost per frame) and a quarter of them
+// jump 8 px once, on a random frame (a track that slid to a neighbouring corner), so the widest
+// pairs share barely 30 points of which too few agree with one essential matrix; the candidate
+// pairs are tried in turn and one sharing more starts. Over render seeds 1-10 of this start: 2
+// start only so (this one after 3 pairs, scale +0.3 %; seed 4 after 2, +0.9 %), 2 from the widest
+// pair, 6 are refused whatever the pair (at most 2 pairs reach the 8 px of parallax).
+TEST(PointInit, ACloserPairStartsWhenTheWidestIsRefused) {
+  PointInitOptions options;
+  const double t_begin = 1.0;
+  RenderedStart r = Render(false, t_begin, t_begin + options.window_s, 2);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  struct Life {
+    double begin_s, jump_s;
+    Vec2 jump_px;
+  };
+  std::map<int64_t, Life> life;
+  for (SfmFrame& f : r.frames) {
+    std::vector<PointObservation> kept;
+    const double t = 1e-9 * static_cast<double>(f.t_ns);
+    for (PointObservation p : f.points) {
+      auto it = life.find(p.point_id);
+      if (it == life.end()) {
+        const double begin = t_begin - 0.6 + (options.window_s + 0.6) * u01(rng);
+        const double angle = 2.0 * M_PI * u01(rng);
+        const bool jumps = u01(rng) < 0.25;
+        it = life.emplace(p.point_id, Life{begin, jumps ? begin + 1.2 * u01(rng) : 1e9,
+                                           8.0 * Vec2(std::cos(angle), std::sin(angle))})
+                 .first;
+      }
+      if (t < it->second.begin_s || t > it->second.begin_s + 1.2) continue;
+      if (t >= it->second.jump_s) p.uv_undistorted += it->second.jump_px;
+      kept.push_back(p);
+    }
+    f.points = std::move(kept);
+  }
+  options.sfm.max_pairs = 1;
+  const PointInitSummary widest =
+      InitializeFromPoints(r.frames, r.imu, Intrinsics(), CameraMount(), Preint(), options);
+  options.sfm.max_pairs = PointInitOptions().sfm.max_pairs;
+  const PointInitSummary s =
+      InitializeFromPoints(r.frames, r.imu, Intrinsics(), CameraMount(), Preint(), options);
+  std::printf(
+      "[point_init] widest pair only: %s; tried in turn: %s after %d pairs, parallax %.1f px\n",
+      widest.success ? "initialised" : widest.reason.c_str(),
+      s.success ? "initialised" : s.reason.c_str(), s.sfm.pairs_tried, s.sfm.pair_parallax_px);
+  EXPECT_FALSE(widest.success);
+  ASSERT_TRUE(s.success) << s.reason;
+  EXPECT_GT(s.sfm.pairs_tried, 1);
+  const Rigid3 T_B_C = CameraMount();
+  const Vec3 c0 = (r.trajectory.Pose(1e-9 * r.frames[s.first].t_ns) * T_B_C).translation();
+  const Vec3 c1 = (r.trajectory.Pose(1e-9 * s.t_last_ns) * T_B_C).translation();
+  std::printf("[point_init] baseline %+.2f %% off\n",
+              100.0 * (s.baseline_m / (c1 - c0).norm() - 1));
+  EXPECT_NEAR(s.baseline_m / (c1 - c0).norm(), 1.0, 0.02);
 }
 
 TEST(PointInit, RefusesPureRotation) {

@@ -5,13 +5,16 @@
 //    shares with the last keyframe, after removing the gyroscope's rotation between them (bias 0),
 //    reaches keyframe_parallax_px, when max_keyframe_interval_s has passed, or when fewer than
 //    keyframe_min_tracked of the last keyframe's points are still tracked.
-// 2. The initial pair: of the keyframe pairs sharing min_points, the one whose median parallax
-//    that no rotation explains is largest (the bearings' residual angle after the rotation that
-//    best aligns them, Kabsch; not the gyroscope's rotation: an unknown bias of 0.02 rad/s over
-//    1.5 s is 17 px at f = 400); it must reach min_parallax_px. Their relative pose from the
-//    essential matrix (OpenCV findEssentialMat + recoverPose, RANSAC on normalised points), whose
-//    rotation must agree with the gyroscope's within max_rotation_error_deg plus what a bias of
-//    max_gyro_bias could add over the interval.
+// 2. The initial pair: the keyframe pairs sharing min_points whose median parallax that no
+//    rotation explains (the bearings' residual angle after the rotation that best aligns them,
+//    Kabsch; not the gyroscope's rotation: an unknown bias of 0.02 rad/s over 1.5 s is 17 px at
+//    f = 400) reaches min_parallax_px are candidates, most parallax first; steps 2-4 run from
+//    each in turn (at most max_pairs) until one succeeds. The pair with the most parallax is
+//    often the one that barely shares min_points, and a few outliers then refuse it where a
+//    closer pair succeeds. The pair's relative pose from the essential matrix (OpenCV
+//    findEssentialMat + recoverPose, RANSAC on normalised points), whose rotation must agree with
+//    the gyroscope's within max_rotation_error_deg plus what a bias of max_gyro_bias could add
+//    over the interval.
 // 3. Triangulation (linear, every posed view of a point; cheirality, reprojection and a minimum
 //    ray angle), then PnP (OpenCV solvePnPRansac) for the other keyframes outwards from the pair,
 //    each followed by the triangulation of the points it makes possible; a direction stops at the
@@ -49,8 +52,13 @@ struct VisualSfmOptions {
   // noise (0.8 px with 0.5 px noise on the rendered start); 0.8 m sideways past points 3-8 m away
   // gave 12 px at f = 400. (VINS-Mono: 30 px at f = 460, of the raw parallax.)
   double min_parallax_px = 8.0;
-  // Points shared by the initial pair (after RANSAC), and triangulated in the end, at least.
+  // Points shared by the initial pair (after RANSAC), and triangulated in the end, at least. (15
+  // agreeing with the essential matrix, as VINS-Mono's 12, let wrong pairs through on the DM-VIO
+  // walk: a gyroscope bias of 0.108 rad/s came out of one.)
   int min_points = 30;
+  // Candidate initial pairs tried at most (each an essential matrix, PnP and a bundle
+  // adjustment: ~5-20 ms).
+  int max_pairs = 6;
   // Points with a 3-D position a keyframe must see for its PnP; fewer: the keyframe is skipped.
   int min_pnp_points = 12;
   // Posed keyframes at least (the alignment needs several IMU intervals), spanning at least this
@@ -93,7 +101,8 @@ struct VisualSfmSummary {
   int keyframes = 0;           // keyframes chosen (posed or not)
   size_t pair_first = 0, pair_second = 0;  // the initial pair (indices into the input)
   double pair_parallax_px = 0.0;           // its median parallax no rotation explains [px]
-  double max_parallax_px = 0.0;            // the largest such parallax to the first keyframe [px]
+  double max_parallax_px = 0.0;            // the largest such parallax of any pair [px]
+  int pairs_tried = 0;                     // candidate initial pairs tried
   double rotation_error_deg = 0.0;         // essential matrix's rotation vs the gyroscope's
   double rms_px = 0.0;                     // bundle adjustment's RMS reprojection error (inliers)
   double median_depth = 0.0;               // points' median depth in the first keyframe [units]
