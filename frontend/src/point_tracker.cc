@@ -262,15 +262,18 @@ bool PointTracker::Impl::Geometry(const std::vector<Vec2>& und1,
       }
     }
     used_rotation = true;
-    // Local optimisation: the essential matrix refitted to the rotation's inliers (least median
-    // of squares: rotation and translation from those points) and every point scored against it
-    // (Sampson distance), kept when it explains more. A real gyroscope's rotation is off by a
-    // fraction of a degree (noise, a time offset, a rolling shutter), which at the threshold cuts
-    // good points (DM-VIO walk's first 10 s: 4.1 points lost a frame with the rotation alone, 1.5
-    // refitted; a Gauss-Newton refit of the rotation and translation direction kept fewer, 2.6,
-    // and the walk's estimate then diverged); a point moving on its own is not among the inliers
-    // the refit sees.
-    if (best_count >= 6 && best_count < static_cast<int>(n)) {
+    // Local optimisation: the epipolar geometry refitted to the rotation's inliers and every
+    // point scored against it (Sampson distance), kept when it explains more. A real gyroscope's
+    // rotation is off by a fraction of a degree (noise, a time offset, a rolling shutter), which
+    // at the threshold cuts good points; a point moving on its own is not among the inliers the
+    // refit sees. The refit is the normalised 8-point least squares over all those inliers (a
+    // fundamental matrix in normalised coordinates). DM-VIO walk's first 10 s, points lost a
+    // frame: 4.1 with the rotation alone; 1.1 refitted so; 1.6 with least median of squares over
+    // 5-point essential matrices, which cost 20 ms a frame there (degree-10 polynomials; 11 % of
+    // the rendered room's CPU); RANSAC's 5-point models (fitted to 5 noisy points) lost so many
+    // that the walk diverged after 9 s, and a Gauss-Newton refit of the rotation and translation
+    // direction kept 2.6 and the walk diverged too.
+    if (best_count >= 8 && best_count < static_cast<int>(n)) {
       std::vector<cv::Point2f> a_in, b_in;
       std::vector<Vec3> f0(n);
       for (size_t k = 0; k < n; ++k) {
@@ -279,8 +282,7 @@ bool PointTracker::Impl::Geometry(const std::vector<Vec2>& und1,
         a_in.emplace_back(static_cast<float>(f0[k].x()), static_cast<float>(f0[k].y()));
         b_in.emplace_back(static_cast<float>(f1[k].x()), static_cast<float>(f1[k].y()));
       }
-      const cv::Mat E =
-          cv::findEssentialMat(a_in, b_in, cv::Mat::eye(3, 3, CV_64F), cv::LMEDS, 0.99, thr);
+      const cv::Mat E = cv::findFundamentalMat(a_in, b_in, cv::FM_8POINT);
       if (E.rows >= 3 && E.cols == 3) {
         Mat3 Em;
         for (int i = 0; i < 3; ++i)
