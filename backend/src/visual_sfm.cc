@@ -7,7 +7,6 @@
 #include <map>
 #include <memory>
 #include <sstream>
-#include <tuple>
 #include <utility>
 #include <vector>
 
