@@ -56,8 +56,8 @@ struct VisualSfmOptions {
   // agreeing with the essential matrix, as VINS-Mono's 12, let wrong pairs through on the DM-VIO
   // walk: a gyroscope bias of 0.108 rad/s came out of one.)
   int min_points = 30;
-  // Candidate initial pairs tried at most (each an essential matrix, PnP and a bundle
-  // adjustment: ~5-20 ms).
+  // Candidate initial pairs tried at most per attempt (each one more essential matrix, PnP chain
+  // and bundle adjustment).
   int max_pairs = 6;
   // Points with a 3-D position a keyframe must see for its PnP; fewer: the keyframe is skipped.
   int min_pnp_points = 12;
