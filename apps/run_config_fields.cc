@@ -111,6 +111,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.point_init.max_speed", &e.point_init.max_speed, kPositive},
       {"estimator.point_init.min_depth_m", &e.point_init.min_depth_m, kPositive},
       {"estimator.point_init.max_depth_m", &e.point_init.max_depth_m, kPositive},
+      {"estimator.point_init.min_motion_m", &e.point_init.min_motion_m, kNonNegative},
       {"estimator.point_init.sfm.keyframe_parallax_px", &e.point_init.sfm.keyframe_parallax_px,
        kPositive},
       {"estimator.point_init.sfm.max_keyframe_interval_s",

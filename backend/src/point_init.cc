@@ -22,8 +22,8 @@ bool PointInitOptions::Check(std::string* why) const {
     os << "max_gyro_bias, max_rotation_rms_deg, max_gravity_error_frac and max_speed must be > 0";
   else if (!(acc_bias_sigma >= 0.0) || !(max_acc_bias > 0.0))
     os << "acc_bias_sigma must be >= 0, max_acc_bias > 0";
-  else if (!(min_depth_m > 0.0) || !(max_depth_m > min_depth_m))
-    os << "min_depth_m must be > 0 and max_depth_m > min_depth_m";
+  else if (!(min_depth_m > 0.0) || !(max_depth_m > min_depth_m) || !(min_motion_m >= 0.0))
+    os << "min_depth_m must be > 0, max_depth_m > min_depth_m, min_motion_m >= 0";
   else if (!sfm.Check(&sfm_why))
     os << "sfm: " << sfm_why;
   if (why) *why = os.str();
@@ -119,6 +119,16 @@ PointInitSummary InitializeFromPoints(const std::vector<SfmFrame>& frames,
         Fmt("the scale is implausible (%.3g m per unit: speed %.2f m/s, the points' "
             "median depth %.2f m)",
             al.s, speed, out.median_depth_m);
+    return out;
+  }
+  double motion_m = 0.0;
+  for (const auto& v : views)
+    motion_m = std::max(motion_m, al.s * (v.c_hat - views.front().c_hat).norm());
+  if (!(motion_m >= options.min_motion_m)) {
+    out.reason =
+        Fmt("the camera moved %.3f m at most from the first keyframe (needs %.3f m): too "
+            "little to tell the scale from the accelerometer",
+            motion_m, options.min_motion_m);
     return out;
   }
   // 4. The world frame: z up, p = 0 at the first keyframe.

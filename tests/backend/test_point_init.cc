@@ -244,6 +244,29 @@ TEST(PointInit, ACloserPairStartsWhenTheWidestIsRefused) {
   EXPECT_NEAR(s.baseline_m / (c1 - c0).norm(), 1.0, 0.02);
 }
 
+// The start's motion is checked: the hand-held flight at 5 % of its amplitude, before points
+// 0.3-0.6 m away (enough parallax), moves the camera ~8 cm. It starts with the default
+// min_motion_m (5 cm) and is refused, with that reason, when 15 cm are asked for.
+TEST(PointInit, RefusesAStartThatMovedTooLittle) {
+  StartScene scene;
+  scene.motion = 0.05;
+  scene.near_m = 0.3;
+  scene.far_m = 0.6;
+  PointInitOptions options;
+  const RenderedStart r = Render(false, 1.0, 1.0 + options.window_s, 1, scene);
+  const PointInitSummary s =
+      InitializeFromPoints(r.frames, r.imu, Intrinsics(), CameraMount(), Preint(), options);
+  options.min_motion_m = 0.15;
+  const PointInitSummary refused =
+      InitializeFromPoints(r.frames, r.imu, Intrinsics(), CameraMount(), Preint(), options);
+  std::printf("[point_init] little motion: %s (baseline %.3f m); asking 0.15 m: %s\n",
+              s.success ? "initialised" : s.reason.c_str(), s.baseline_m,
+              refused.success ? "initialised" : refused.reason.c_str());
+  EXPECT_TRUE(s.success) << s.reason;
+  EXPECT_FALSE(refused.success);
+  EXPECT_NE(refused.reason.find("the camera moved"), std::string::npos) << refused.reason;
+}
+
 TEST(PointInit, RefusesPureRotation) {
   const RenderedStart r = Render(true, 1.0, 3.0, 1);
   const PointInitSummary s = InitializeFromPoints(r.frames, r.imu, Intrinsics(), CameraMount(),

@@ -67,6 +67,13 @@ struct PointInitOptions {
   double max_speed = 10.0;
   double min_depth_m = 0.2;
   double max_depth_m = 100.0;
+  // The camera must have moved this far from the first keyframe at some keyframe [m]: the scale
+  // is the visual displacement matched to the accelerometer's double integral, and an
+  // accelerometer error of 0.025 m/s^2 (a bias the alignment does not take out) integrates to 5
+  // cm over 2 s. A wrong start on the DM-VIO walk (sfm.min_points 20 instead of 30) had moved 2.6
+  // cm, and the run then diverged 32 times; its right start moved 11 cm or more, the rendered
+  // starts 0.3-1 m.
+  double min_motion_m = 0.05;
   bool Check(std::string* why) const;
 };
 
