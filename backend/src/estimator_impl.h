@@ -293,6 +293,14 @@ struct Estimator::Impl {
     return T_W_C.rotation().conjugate() * Vec3::UnitZ();
   }
 
+  // The current instance of the object that keyframe KF's view of OBJECT_ID is of; null when there
+  // is none or the view is older than the instance (a view from before first_seen belongs to an
+  // earlier instance of the id: a start that refused it, a rejected loop, a restart).
+  static Object* InstanceSeen(const Objects& objs, const Keyframe& kf, int object_id) {
+    const auto it = objs.find(object_id);
+    return it != objs.end() && kf.index >= it->second->first_seen ? it->second.get() : nullptr;
+  }
+
   // Whether an observation from camera pose T_W_C agrees with the object's estimate: in front and
   // the RMS corner error (pixels) within options.reinit_gate_px.
   bool ConsistentWithMap(const Object& obj, const Rigid3& T_W_C, const Corners& corners) const {

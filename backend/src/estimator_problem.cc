@@ -40,11 +40,10 @@ void Estimator::Impl::AddVisualFactors(ceres::Problem* problem, size_t begin, si
   for (size_t i = begin; i < end; ++i) {
     Keyframe* kf = keyframes[i].get();
     for (const ObjectObservation& o : kf->observations) {
-      auto it = objects.find(o.object_id);
-      if (it == objects.end() || (it->second->observations >= options.mature_views) != mature)
-        continue;
-      AddObservation(problem, kf, it->second.get(), o.corners, o.seen, o.sigma_px, is_variable);
-      seen.push_back(it->second.get());
+      Object* obj = InstanceSeen(objects, *kf, o.object_id);
+      if (!obj || (obj->observations >= options.mature_views) != mature) continue;
+      AddObservation(problem, kf, obj, o.corners, o.seen, o.sigma_px, is_variable);
+      seen.push_back(obj);
     }
   }
   std::sort(seen.begin(), seen.end(),
@@ -319,12 +318,10 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs,
   }
   for (auto& kf : *kfs) {
     for (const ObjectObservation& o : kf->observations) {
-      // Views from before an object's first_seen belong to an earlier instance of its id (a
-      // rejected loop, a restart); an object no free keyframe saw stays as it is.
-      auto it = objs->find(o.object_id);
-      if (it != objs->end() && kf->index >= it->second->first_seen &&
-          it->second->last_seen >= static_cast<int>(free_from))
-        AddObservation(problem, kf.get(), it->second.get(), o.corners, o.seen, o.sigma_px, is_free);
+      // An object no free keyframe saw stays as it is.
+      Object* obj = InstanceSeen(*objs, *kf, o.object_id);
+      if (obj && obj->last_seen >= static_cast<int>(free_from))
+        AddObservation(problem, kf.get(), obj, o.corners, o.seen, o.sigma_px, is_free);
     }
   }
   AddObjectPriors(problem, objs);
