@@ -59,6 +59,8 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.points.max_depth_m", &e.points.max_depth_m, kPositive},
       {"estimator.points.max_triangulation_px", &e.points.max_triangulation_px, kPositive},
       {"estimator.points.outlier_px", &e.points.outlier_px, kPositive},
+      {"estimator.points.object_probation_views", &e.points.object_probation_views, kNonNegative},
+      {"estimator.points.object_gate_px", &e.points.object_gate_px, kPositive},
       {"estimator.points.reanchor", &e.points.reanchor, kAny},
       {"estimator.points.marginalize", &e.points.marginalize, kAny},
       {"estimator.points.global_sigma_m", &e.points.global_sigma_m, kPositive},

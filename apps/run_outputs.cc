@@ -155,6 +155,7 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
       {"observations_partial", s.observations_partial},
       {"partial_dropped", s.partial_dropped},
       {"starts_rejected", s.starts_rejected},
+      {"objects_moving", s.objects_moving},
       {"observations_rejected", s.observations_rejected},
       {"reanchors", s.reanchors},
       {"marginalizations", s.marginalizations},

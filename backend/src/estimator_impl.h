@@ -15,6 +15,7 @@
 #include <functional>
 #include <limits>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <thread>
 #include <tuple>
@@ -72,6 +73,8 @@ struct Estimator::Impl {
   // The first whole view of each object not in the map yet, waiting for a second one to agree
   // (options.start_agree_px).
   std::map<int, StartView> start_views;
+  // Objects dropped on probation (PointOptions::object_probation_views): their ids never start.
+  std::set<int> moving;
   std::vector<StateSample> output;  // per frame, the state reported for it
   std::vector<StateSample> causal;  // per frame, its state right after its own update
   // Frames that were not kept as keyframes: their pose and velocity relative to the keyframe before
@@ -475,9 +478,19 @@ struct Estimator::Impl {
   // and biases alone, everything else held (a tracking step).
   void SolveFrameAlone(int max_iterations);
 
-  // Objects seen fewer than mature_views times are refined on their own with the poses held
-  // constant: a young object's single-view guess (class-prior depth, possibly flipped normal) must
-  // not pull the trajectory before parallax has confirmed it.
+  // The views after which an object constrains the poses: mature_views, and with points the
+  // probation's object_probation_views.
+  int MatureViews() const {
+    return summary.point_frames > 0
+               ? std::max(options.mature_views, options.points.object_probation_views)
+               : options.mature_views;
+  }
+  bool Mature(const Object& obj) const { return obj.observations >= MatureViews(); }
+
+  // Objects not mature yet are refined on their own with the poses held constant: a young object's
+  // single-view guess (class-prior depth, possibly flipped normal) must not pull the trajectory
+  // before parallax has confirmed it. With points, those whose views then disagree with them are
+  // dropped (DropMovingObjects).
   void RefineYoungObjects(int max_iterations) {
     ceres::Problem problem(ProblemOptions());
     AddVisualFactors(&problem, window_begin, keyframes.size(), /*mature=*/false);
@@ -486,6 +499,9 @@ struct Estimator::Impl {
     ceres::Solver::Summary s;
     ceres::Solve(SolverOptions(max_iterations), &problem, &s);
   }
+  // With points: the objects on probation with 3 views or more in the window that lie further than
+  // PointOptions::object_gate_px (RMS) from them are erased, their ids put in `moving`, warned.
+  void DropMovingObjects();
 
   // --- Marginalisation
   // ------------------------------------------------------------------------------ Moves the anchor

@@ -17,6 +17,7 @@ bool Estimator::Impl::IsKeyframe(int64_t t_ns, int frame,
     return true;
   const int first_in_window = keyframes[window_begin]->index;
   for (const ObjectObservation& o : obs) {
+    if (moving.count(o.object_id)) continue;
     auto it = objects.find(o.object_id);
     if (o.Complete() && it == objects.end() && !WaitingStart(o.object_id)) return true;
     if (o.Complete() && it != objects.end() && it->second->last_seen < first_in_window) return true;
@@ -36,6 +37,7 @@ void Estimator::Impl::InitializeNewObjects(Keyframe* kf) {
   const int first_in_window = keyframes[window_begin]->index;
   std::vector<int> waiting;  // partial views of returning objects that do not close their loop
   for (const ObjectObservation& o : kf->observations) {
+    if (moving.count(o.object_id)) continue;
     auto found = objects.find(o.object_id);
     const bool returning = found != objects.end() && options.mode == EstimatorMode::kWindow &&
                            found->second->last_seen < first_in_window;
@@ -171,6 +173,44 @@ bool Estimator::Impl::ClosesDirectly(const Object& obj, const Rigid3& T_W_C,
   const std::optional<double> e = PredictionError(obj, T_W_C, o.corners, o.seen);
   if (!options.global.enabled) return e && *e <= options.reinit_gate_px;
   return e && *e <= options.global.loop_direct_px && AcceptLoop(obj);
+}
+
+void Estimator::Impl::DropMovingObjects() {
+  constexpr size_t kMinViews = 3;
+  for (auto it = objects.begin(); it != objects.end();) {
+    Object& obj = *it->second;
+    if (Mature(obj)) {
+      ++it;
+      continue;
+    }
+    double sum2 = 0.0;
+    size_t views = 0;
+    for (size_t i = window_begin; i < keyframes.size(); ++i) {
+      const Keyframe& kf = *keyframes[i];
+      for (const ObjectObservation& o : kf.observations) {
+        if (o.object_id != obj.id || InstanceSeen(objects, kf, o.object_id) != &obj) continue;
+        const std::optional<double> e = PredictionError(obj, CameraPose(kf), o.corners, o.seen);
+        sum2 += e ? *e * *e : std::numeric_limits<double>::infinity();
+        ++views;
+      }
+    }
+    const double rms = views > 0 ? std::sqrt(sum2 / static_cast<double>(views)) : 0.0;
+    if (views < kMinViews || rms <= options.points.object_gate_px) {
+      ++it;
+      continue;
+    }
+    char why[240];
+    std::snprintf(why, sizeof(why),
+                  "object %d dropped: its %zu views lie %.3g px (RMS) from the rectangle that the "
+                  "trajectory of the points and the IMU allows (moving, or not a rectangle); its "
+                  "views are ignored from now on",
+                  obj.id, views, rms);
+    Warn(keyframes.back()->state.t_ns, why);
+    ++summary.objects_moving;
+    moving.insert(obj.id);
+    start_views.erase(obj.id);
+    it = objects.erase(it);
+  }
 }
 
 }  // namespace fsp::backend

@@ -31,6 +31,8 @@ bool PointOptions::Check(std::string* why) const {
     os << "max_triangulation_px and outlier_px must be > 0";
   else if (!(global_sigma_m > 0.0) || !(global_sigma_per_m >= 0.0) || !(global_sigma_deg > 0.0))
     os << "need global_sigma_m > 0, global_sigma_per_m >= 0, global_sigma_deg > 0";
+  else if (object_probation_views < 0 || !(object_gate_px > 0.0))
+    os << "object_probation_views must be >= 0, object_gate_px > 0";
   if (why) *why = os.str();
   return os.str().empty();
 }

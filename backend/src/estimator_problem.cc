@@ -41,7 +41,7 @@ void Estimator::Impl::AddVisualFactors(ceres::Problem* problem, size_t begin, si
     Keyframe* kf = keyframes[i].get();
     for (const ObjectObservation& o : kf->observations) {
       Object* obj = InstanceSeen(objects, *kf, o.object_id);
-      if (!obj || (obj->observations >= options.mature_views) != mature) continue;
+      if (!obj || Mature(*obj) != mature) continue;
       AddObservation(problem, kf, obj, o.corners, o.seen, o.sigma_px, is_variable);
       seen.push_back(obj);
     }

@@ -49,6 +49,7 @@ void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
     ComputeSigmas(&problem);
   } else {
     RefineYoungObjects(max_iterations);
+    if (summary.point_frames > 0) DropMovingObjects();
   }
 }
 
@@ -88,7 +89,7 @@ void Estimator::Impl::SolveFrameAlone(int max_iterations) {
   const auto is_variable = [kf](const Keyframe* k) { return k == kf; };
   for (const ObjectObservation& o : kf->observations) {
     auto it = objects.find(o.object_id);
-    if (it != objects.end() && it->second->observations >= options.mature_views)
+    if (it != objects.end() && Mature(*it->second))
       AddObservation(&problem, kf, it->second.get(), o.corners, o.seen, o.sigma_px, is_variable);
   }
   AddPointFactorsOf(&problem, kf);

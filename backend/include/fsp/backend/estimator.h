@@ -208,6 +208,15 @@ struct PointOptions {
   // After each window solve a point with a view further than this from its prediction is dropped
   // (counted in points_rejected) [px].
   double outlier_px = 3.0;
+  // Objects on probation. In a run with points, an object constrains the poses only from its
+  // object_probation_views-th view on; before, it is refined alone against the poses that the
+  // points and the IMU give (held), and once it has 3 views in the window it is dropped for good
+  // (objects_moving, warned) when they lie further than object_gate_px (RMS) from it: it moves
+  // with the camera (the recording laptop's screen), swings (a door) or is no rectangle. So such an
+  // object cannot bend the trajectory and have the points dropped as the outliers instead
+  // (backend/README.md, "Objects on probation"). 0 views: no probation.
+  int object_probation_views = 5;
+  double object_gate_px = 3.0;
   // When the anchor keyframe leaves the window, its views of the points anchored at it go into the
   // marginalisation prior with their inverse depths (VINS-Mono); false: they are dropped with it.
   // Without them the window's position and yaw keep only the IMU chain's prior and wander where no
@@ -404,6 +413,7 @@ struct EstimatorSummary {
   int partial_dropped = 0;  // partial observations of objects the window did not track (unused)
   int observations_rejected = 0;  // first views whose single-view initialisation failed
   int starts_rejected = 0;        // first views of objects that the next whole view disagreed with
+  int objects_moving = 0;  // objects dropped on probation: the points disagreed with them
   int reanchors = 0;
   int objects_reinitialized =
       0;  // window: objects seen again after leaving the window, started afresh
