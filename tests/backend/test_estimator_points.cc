@@ -189,9 +189,9 @@ TEST(EstimatorPoints, StretchWithoutPointsIsReportedAsDeadReckoning) {
 }
 
 // A rectangle that moves with the camera (the recording laptop's screen in the DM-VIO walk: the
-// same 80 x 50 px in every frame from 3 s on, 0.3 px noise; the flight's first 8 s). On probation it is refined against
-// the poses the points give and dropped; trusted from its first view (no probation), it bends the
-// trajectory to keep itself still in the image.
+// same 80 x 50 px in every frame from 3 s on, 0.3 px noise; the flight's first 8 s). On probation
+// it is refined against the poses the points give and dropped; trusted from its first view (no
+// probation), it bends the trajectory to keep itself still in the image.
 TEST(EstimatorPoints, ARectangleMovingWithTheCameraIsDropped) {
   PointFlight f = MakePointFlight(3);
   size_t frames = 0;  // the first 8 s

@@ -413,7 +413,7 @@ struct EstimatorSummary {
   int partial_dropped = 0;  // partial observations of objects the window did not track (unused)
   int observations_rejected = 0;  // first views whose single-view initialisation failed
   int starts_rejected = 0;        // first views of objects that the next whole view disagreed with
-  int objects_moving = 0;  // objects dropped on probation: the points disagreed with them
+  int objects_moving = 0;         // objects dropped on probation: the points disagreed with them
   int reanchors = 0;
   int objects_reinitialized =
       0;  // window: objects seen again after leaving the window, started afresh
