@@ -238,6 +238,7 @@ void Estimator::Impl::Restart(const std::string& why) {
                            "): solve rejected, estimator restarted (new session from this frame)");
   if (options.mode == EstimatorMode::kBatch) return;
   window_begin = static_cast<size_t>(kf->index);
+  session_begin = window_begin;
   prior.reset();
   ClearPoints();
   for (auto& [id, obj] : objects) {

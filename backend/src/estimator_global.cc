@@ -130,10 +130,11 @@ void Estimator::Impl::StartGlobal() {
       summary.keyframes + go.apply_after_keyframes +
       (go.apply_after_per_keyframes > 0 ? static_cast<int>(n) / go.apply_after_per_keyframes : 0);
   // The free part: the newest max_free_keyframes, and every keyframe since a closed loop's object
-  // was last seen.
+  // was last seen, within the current session.
   const int max_free = options.global.max_free_keyframes;
   size_t free_from = max_free > 0 && n > static_cast<size_t>(max_free) ? n - max_free : 0;
   free_from = std::min(free_from, static_cast<size_t>(std::max(0, loop_from)));
+  free_from = std::max(free_from, session_begin);
   j->free_from = free_from;
   keyframes_since_global = 0;
   loop_pending = false;

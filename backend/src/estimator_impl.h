@@ -106,7 +106,12 @@ struct Estimator::Impl {
     return out;
   }
   size_t window_begin = 0;  // index of the oldest keyframe in the window
-  Rigid3 T_W_B0;            // gauge prior of the first keyframe
+  // Window mode: index of the first keyframe of the current session (the start, the last restart).
+  // The global solves and the final solve hold the keyframes before it: nothing links the sessions
+  // (the restart's gauge replaces the IMU link, its objects start again), and the states that led
+  // to a divergence would fail every later solve's checks.
+  size_t session_begin = 0;
+  Rigid3 T_W_B0;  // gauge prior of the first keyframe
   Eigen::Matrix<double, 9, 1> sb0 = Eigen::Matrix<double, 9, 1>::Zero();
   std::shared_ptr<const LinearPrior> prior;  // from the marginalised keyframes
   // Global step: keyframes added since the last global solve was started; a loop closed since (the

@@ -370,7 +370,8 @@ bool Estimator::Impl::SolveFull(int max_iterations, bool with_sigmas, const char
                                 ceres::Solver::Summary* s) {
   ceres::Problem problem(ProblemOptions());
   const std::string diverged =
-      SolveAll(&keyframes, &objects, SolverOptions(max_iterations, /*whole=*/true), s, &problem);
+      SolveAll(&keyframes, &objects, SolverOptions(max_iterations, /*whole=*/true), s, &problem,
+               session_begin);
   if (!diverged.empty()) {
     Warn(keyframes.back()->state.t_ns,
          std::string("divergence in ") + what + " (" + diverged + "): its result was rejected");
