@@ -156,6 +156,7 @@ nlohmann::ordered_json RunReportToJson(const RunReport& r) {
       {"partial_dropped", s.partial_dropped},
       {"starts_rejected", s.starts_rejected},
       {"objects_moving", s.objects_moving},
+      {"objects_rejected", s.objects_rejected},
       {"observations_rejected", s.observations_rejected},
       {"reanchors", s.reanchors},
       {"marginalizations", s.marginalizations},

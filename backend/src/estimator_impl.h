@@ -495,7 +495,7 @@ struct Estimator::Impl {
   // Objects not mature yet are refined on their own with the poses held constant: a young object's
   // single-view guess (class-prior depth, possibly flipped normal) must not pull the trajectory
   // before parallax has confirmed it. With points, those whose views then disagree with them are
-  // dropped (DropMovingObjects).
+  // dropped (DropInconsistentObjects).
   void RefineYoungObjects(int max_iterations) {
     ceres::Problem problem(ProblemOptions());
     AddVisualFactors(&problem, window_begin, keyframes.size(), /*mature=*/false);
@@ -504,9 +504,10 @@ struct Estimator::Impl {
     ceres::Solver::Summary s;
     ceres::Solve(SolverOptions(max_iterations), &problem, &s);
   }
-  // With points: the objects on probation with 3 views or more in the window that lie further than
-  // PointOptions::object_gate_px (RMS) from them are erased, their ids put in `moving`, warned.
-  void DropMovingObjects();
+  // With points: the objects whose views in the window lie further than
+  // PointOptions::object_gate_px from them (on probation, 3 views or more, RMS: erased, their ids
+  // put in `moving`; mature, 5 views or more, median: erased, the map loses it). Warned.
+  void DropInconsistentObjects();
 
   // --- Marginalisation
   // ------------------------------------------------------------------------------ Moves the anchor

@@ -3,6 +3,8 @@
 // the partial views of returning objects.
 #include "estimator_impl.h"
 
+#include "fsp/common/median.h"
+
 namespace fsp::backend {
 
 bool Estimator::Impl::IsKeyframe(int64_t t_ns, int frame,
@@ -175,40 +177,50 @@ bool Estimator::Impl::ClosesDirectly(const Object& obj, const Rigid3& T_W_C,
   return e && *e <= options.global.loop_direct_px && AcceptLoop(obj);
 }
 
-void Estimator::Impl::DropMovingObjects() {
-  constexpr size_t kMinViews = 3;
+void Estimator::Impl::DropInconsistentObjects() {
+  constexpr size_t kMinViews = 3, kMinMatureViews = 5;
   for (auto it = objects.begin(); it != objects.end();) {
     Object& obj = *it->second;
-    if (Mature(obj)) {
-      ++it;
-      continue;
-    }
-    double sum2 = 0.0;
-    size_t views = 0;
+    std::vector<double> errors;  // of its views in the window [px]
     for (size_t i = window_begin; i < keyframes.size(); ++i) {
       const Keyframe& kf = *keyframes[i];
       for (const ObjectObservation& o : kf.observations) {
         if (o.object_id != obj.id || InstanceSeen(objects, kf, o.object_id) != &obj) continue;
         const std::optional<double> e = PredictionError(obj, CameraPose(kf), o.corners, o.seen);
-        sum2 += e ? *e * *e : std::numeric_limits<double>::infinity();
-        ++views;
+        errors.push_back(e ? *e : std::numeric_limits<double>::infinity());
       }
     }
-    const double rms = views > 0 ? std::sqrt(sum2 / static_cast<double>(views)) : 0.0;
-    if (views < kMinViews || rms <= options.points.object_gate_px) {
+    // On probation its few views, all of them; mature, the typical view (one view off by tens of
+    // pixels, a corner on the wrong edge, is the robust loss's to handle).
+    const bool mature = Mature(obj);
+    double error = 0.0;
+    if (!mature && errors.size() >= kMinViews) {
+      for (double e : errors) error += e * e;
+      error = std::sqrt(error / static_cast<double>(errors.size()));
+    } else if (mature && errors.size() >= kMinMatureViews) {
+      error = Median(errors);
+    }
+    if (error <= options.points.object_gate_px) {
       ++it;
       continue;
     }
-    char why[240];
-    std::snprintf(why, sizeof(why),
-                  "object %d dropped: its %zu views lie %.3g px (RMS) from the rectangle that the "
-                  "trajectory of the points and the IMU allows (moving, or not a rectangle); its "
-                  "views are ignored from now on",
-                  obj.id, views, rms);
+    char why[300];
+    std::snprintf(
+        why, sizeof(why),
+        "object %d %s: its %zu views in the window lie %.3g px (%s) from the rectangle "
+        "that the trajectory of the points and the IMU allows (%s)",
+        obj.id, mature ? "rejected" : "dropped", errors.size(), error, mature ? "median" : "RMS",
+        mature ? "not a rectangle, or its track slid: it leaves the estimate and the map, "
+                 "its id may start afresh"
+               : "moving, or not a rectangle: its views are ignored from now on");
     Warn(keyframes.back()->state.t_ns, why);
-    ++summary.objects_moving;
-    moving.insert(obj.id);
     start_views.erase(obj.id);
+    if (mature) {
+      ++summary.objects_rejected;
+    } else {
+      ++summary.objects_moving;
+      moving.insert(obj.id);
+    }
     it = objects.erase(it);
   }
 }

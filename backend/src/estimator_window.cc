@@ -49,7 +49,7 @@ void Estimator::Impl::SolveWindow(int max_iterations, bool finish) {
     ComputeSigmas(&problem);
   } else {
     RefineYoungObjects(max_iterations);
-    if (summary.point_frames > 0) DropMovingObjects();
+    if (summary.point_frames > 0) DropInconsistentObjects();
   }
 }
 

@@ -227,6 +227,62 @@ TEST(EstimatorPoints, ARectangleMovingWithTheCameraIsDropped) {
   EXPECT_GT(trusted.max_error_m, 3.0 * probation.max_error_m);
 }
 
+// A static quad that is no rectangle (the front end joining edges of different things: s1 and s3
+// 3 m in front of the camera at 3 s, s2 and s4 1.5 m behind them), seen from 3 s on while all its
+// corners are in view. Early on, with little parallax, a rectangle explains its views and it passes
+// its probation; once the camera has moved no rectangle does, and it is rejected: it leaves the
+// estimate and the map (the flight's first 8 s).
+TEST(EstimatorPoints, AQuadThatIsNoRectangleIsRejectedOnceTheCameraMoves) {
+  PointFlight f = MakePointFlight(3);
+  size_t frames = 0;  // the first 8 s
+  while (frames < f.frame_t.size() && f.frame_t[frames] < 8'000'000'000) ++frames;
+  f.frame_t.resize(frames);
+  f.points.resize(frames);
+  const Rigid3 T_W_C3 = f.trajectory.Pose(3.0) * f.calibration.T_B_C;
+  const std::array<Vec3, 4> p_C3 = {Vec3(-0.6, 0.4, 5.0), Vec3(0.6, 0.4, 5.8), Vec3(0.6, -0.4, 5.0),
+                                    Vec3(-0.6, -0.4, 5.8)};
+  const Mat3 K = f.calibration.camera.K();
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  std::vector<std::vector<ObjectObservation>> objects(f.frame_t.size());
+  int views = 0;
+  for (size_t k = 0; k < f.frame_t.size(); ++k) {
+    if (f.frame_t[k] < 3'000'000'000) continue;
+    const Rigid3 T_C_W = (f.trajectory.Pose(f.frame_t[k] * 1e-9) * f.calibration.T_B_C).Inverse();
+    ObjectObservation o;
+    o.t_ns = f.frame_t[k];
+    o.object_id = 1;
+    bool in_view = true;
+    for (int j = 0; j < 4; ++j) {
+      const Vec3 uv = K * (T_C_W * (T_W_C3 * p_C3[j]));
+      o.corners[j] = uv.head<2>() / uv.z() + Vec2(noise(rng), noise(rng));
+      in_view = in_view && uv.z() > 0.3 && o.corners[j].x() > 10 && o.corners[j].x() < 630 &&
+                o.corners[j].y() > 10 && o.corners[j].y() < 470;
+    }
+    if (!in_view) continue;
+    objects[k].push_back(o);
+    ++views;
+  }
+  EstimatorOptions o;
+  const FlightResult judged = RunFlight(f, o, /*give_points=*/true, objects);
+  o.points.object_gate_px = 1e6;
+  const FlightResult trusted = RunFlight(f, o, /*give_points=*/true, objects);
+  const FlightResult none = RunFlight(f, EstimatorOptions(), /*give_points=*/true);
+  std::printf(
+      "quad in %d frames: max error points alone %.3f m, the quad judged %.3f m (%d dropped on "
+      "probation, %d rejected), trusted %.3f m\n",
+      views, none.max_error_m, judged.max_error_m, judged.summary.objects_moving,
+      judged.summary.objects_rejected, trusted.max_error_m);
+  EXPECT_GT(views, 20);
+  EXPECT_EQ(judged.summary.objects_moving, 0);  // it passed its probation
+  EXPECT_EQ(judged.summary.objects_rejected, 1);
+  // It pulls the window until its median view gives it away, and the pull stays in the
+  // marginalisation prior: measured 5.4 cm against 1.3 cm without it, 3.8 cm trusted throughout
+  // (on the paper's flight, where the quad is seen again later, the rejection takes 11 -> 3 cm).
+  EXPECT_LT(judged.max_error_m, 0.1);
+  EXPECT_LT(trusted.max_error_m, 0.1);
+}
+
 // Points given with the option off: the same bytes as no points at all.
 TEST(EstimatorPoints, OffIgnoresPoints) {
   PointFlight f = MakePointFlight(5);

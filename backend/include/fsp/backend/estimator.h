@@ -213,8 +213,12 @@ struct PointOptions {
   // points and the IMU give (held), and once it has 3 views in the window it is dropped for good
   // (objects_moving, warned) when they lie further than object_gate_px (RMS) from it: it moves
   // with the camera (the recording laptop's screen), swings (a door) or is no rectangle. So such an
-  // object cannot bend the trajectory and have the points dropped as the outliers instead
-  // (backend/README.md, "Objects on probation"). 0 views: no probation.
+  // object cannot bend the trajectory and have the points dropped as the outliers instead. A
+  // mature object whose window views lie further than object_gate_px from it (median, 5 views or
+  // more: a quad across four doors that no rectangle explains once the camera moves) is rejected
+  // (objects_rejected): it leaves the estimate and the map (backend/README.md, "Objects on
+  // probation").
+  // 0 views: no probation.
   int object_probation_views = 5;
   double object_gate_px = 3.0;
   // When the anchor keyframe leaves the window, its views of the points anchored at it go into the
@@ -413,7 +417,10 @@ struct EstimatorSummary {
   int partial_dropped = 0;  // partial observations of objects the window did not track (unused)
   int observations_rejected = 0;  // first views whose single-view initialisation failed
   int starts_rejected = 0;        // first views of objects that the next whole view disagreed with
-  int objects_moving = 0;         // objects dropped on probation: the points disagreed with them
+  // Objects the points disagreed with (PointOptions::object_gate_px): dropped on probation,
+  // rejected when mature.
+  int objects_moving = 0;
+  int objects_rejected = 0;
   int reanchors = 0;
   int objects_reinitialized =
       0;  // window: objects seen again after leaving the window, started afresh
