@@ -186,6 +186,20 @@ void Estimator::Impl::NoteSight(int64_t t_ns, bool sees, bool end) {
   unseen_since_t.reset();
 }
 
+std::pair<int64_t, int64_t> Estimator::Impl::LongestImuHole(int64_t t0, int64_t t1) const {
+  auto it = std::upper_bound(imu.begin(), imu.end(), t0,
+                             [](int64_t t, const ImuSample& s) { return t < s.t_ns; });
+  int64_t prev = it == imu.begin() ? t0 : (it - 1)->t_ns;
+  std::pair<int64_t, int64_t> best{prev, prev};
+  while (prev < t1) {
+    const int64_t next = it == imu.end() ? t1 : it->t_ns;
+    if (next - prev > best.second - best.first) best = {prev, next};
+    prev = next;
+    if (it != imu.end()) ++it;
+  }
+  return best;
+}
+
 bool Estimator::Impl::Still(const Keyframe& prev, const Keyframe& kf) const {
   const ZeroVelocityOptions& z = options.zero_velocity;
   if (!z.enabled) return false;

@@ -142,19 +142,7 @@ struct Estimator::Impl {
   // The longest stretch without an IMU sample that the interval [t0, t1] needs: from the last
   // sample at or before t0 (t0 if none) through the samples inside to the first sample at or after
   // t1 (t1 when none has arrived yet). [from, to] in ns.
-  std::pair<int64_t, int64_t> LongestImuHole(int64_t t0, int64_t t1) const {
-    auto it = std::upper_bound(imu.begin(), imu.end(), t0,
-                               [](int64_t t, const ImuSample& s) { return t < s.t_ns; });
-    int64_t prev = it == imu.begin() ? t0 : (it - 1)->t_ns;
-    std::pair<int64_t, int64_t> best{prev, prev};
-    while (prev < t1) {
-      const int64_t next = it == imu.end() ? t1 : it->t_ns;
-      if (next - prev > best.second - best.first) best = {prev, next};
-      prev = next;
-      if (it != imu.end()) ++it;
-    }
-    return best;
-  }
+  std::pair<int64_t, int64_t> LongestImuHole(int64_t t0, int64_t t1) const;
 
   // Frame gaps and stretches without any object in view (counted and warned; `end`: the sequence
   // ended at t_ns, only the trailing stretch is examined).
@@ -496,14 +484,7 @@ struct Estimator::Impl {
   // single-view guess (class-prior depth, possibly flipped normal) must not pull the trajectory
   // before parallax has confirmed it. With points, those whose views then disagree with them are
   // dropped (DropInconsistentObjects).
-  void RefineYoungObjects(int max_iterations) {
-    ceres::Problem problem(ProblemOptions());
-    AddVisualFactors(&problem, window_begin, keyframes.size(), /*mature=*/false);
-    if (problem.NumResidualBlocks() == 0) return;
-    AddObjectPriors(&problem);
-    ceres::Solver::Summary s;
-    ceres::Solve(SolverOptions(max_iterations), &problem, &s);
-  }
+  void RefineYoungObjects(int max_iterations);
   // With points: the objects whose views in the window lie further than
   // PointOptions::object_gate_px from them (on probation, 3 views or more, RMS: erased, their ids
   // put in `moving`; mature, 5 views or more, median: erased, the map loses it). Warned.

@@ -1,7 +1,11 @@
 // Objects entering the map (backend/README.md, "Starting an object" and "Objects partly in view"):
 // which frames become keyframes for them, the two agreeing whole views that start an object, and
-// the partial views of returning objects.
+// the partial views of returning objects; and the objects the points disagree with ("Objects on
+// probation").
 #include "estimator_impl.h"
+
+#include <map>
+#include <vector>
 
 #include "fsp/common/median.h"
 
@@ -177,28 +181,40 @@ bool Estimator::Impl::ClosesDirectly(const Object& obj, const Rigid3& T_W_C,
   return e && *e <= options.global.loop_direct_px && AcceptLoop(obj);
 }
 
+void Estimator::Impl::RefineYoungObjects(int max_iterations) {
+  ceres::Problem problem(ProblemOptions());
+  AddVisualFactors(&problem, window_begin, keyframes.size(), /*mature=*/false);
+  if (problem.NumResidualBlocks() == 0) return;
+  AddObjectPriors(&problem);
+  ceres::Solver::Summary s;
+  ceres::Solve(SolverOptions(max_iterations), &problem, &s);
+}
+
 void Estimator::Impl::DropInconsistentObjects() {
   constexpr size_t kMinViews = 3, kMinMatureViews = 5;
-  for (auto it = objects.begin(); it != objects.end();) {
-    Object& obj = *it->second;
-    std::vector<double> errors;  // of its views in the window [px]
-    for (size_t i = window_begin; i < keyframes.size(); ++i) {
-      const Keyframe& kf = *keyframes[i];
-      for (const ObjectObservation& o : kf.observations) {
-        if (o.object_id != obj.id || InstanceSeen(objects, kf, o.object_id) != &obj) continue;
-        const std::optional<double> e = PredictionError(obj, CameraPose(kf), o.corners, o.seen);
-        errors.push_back(e ? *e : std::numeric_limits<double>::infinity());
-      }
+  // Each object's views in the window: their distances from it [px].
+  std::map<const Object*, std::vector<double>> errors;
+  for (size_t i = window_begin; i < keyframes.size(); ++i) {
+    const Keyframe& kf = *keyframes[i];
+    for (const ObjectObservation& o : kf.observations) {
+      const Object* obj = InstanceSeen(objects, kf, o.object_id);
+      if (!obj) continue;
+      const std::optional<double> e = PredictionError(*obj, CameraPose(kf), o.corners, o.seen);
+      errors[obj].push_back(e ? *e : std::numeric_limits<double>::infinity());
     }
+  }
+  for (auto it = objects.begin(); it != objects.end();) {
+    const Object& obj = *it->second;
+    const std::vector<double>& views = errors[&obj];
     // On probation its few views, all of them; mature, the typical view (one view off by tens of
     // pixels, a corner on the wrong edge, is the robust loss's to handle).
     const bool mature = Mature(obj);
     double error = 0.0;
-    if (!mature && errors.size() >= kMinViews) {
-      for (double e : errors) error += e * e;
-      error = std::sqrt(error / static_cast<double>(errors.size()));
-    } else if (mature && errors.size() >= kMinMatureViews) {
-      error = Median(errors);
+    if (!mature && views.size() >= kMinViews) {
+      for (double e : views) error += e * e;
+      error = std::sqrt(error / static_cast<double>(views.size()));
+    } else if (mature && views.size() >= kMinMatureViews) {
+      error = Median(views);
     }
     if (error <= options.points.object_gate_px) {
       ++it;
@@ -209,7 +225,7 @@ void Estimator::Impl::DropInconsistentObjects() {
         why, sizeof(why),
         "object %d %s: its %zu views in the window lie %.3g px (%s) from the rectangle "
         "that the trajectory of the points and the IMU allows (%s)",
-        obj.id, mature ? "rejected" : "dropped", errors.size(), error, mature ? "median" : "RMS",
+        obj.id, mature ? "rejected" : "dropped", views.size(), error, mature ? "median" : "RMS",
         mature ? "not a rectangle, or its track slid: it leaves the estimate and the map, "
                  "its id may start afresh"
                : "moving, or not a rectangle: its views are ignored from now on");
