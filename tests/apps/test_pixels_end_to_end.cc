@@ -166,7 +166,7 @@ TEST(PixelsEndToEnd, TrackingClipZoomRollAndReturn) {
 }
 
 // Motion blur (20 ms shutter: median 6 px, p90 17 px of smear on the poster). Measured: success
-// 391/409 (0.956; render seed 2 in `fsp bench`: 389/409; 381 before stop 29's relearnt
+// 391/409 (0.956; render seed 2 in `fsp bench`: 389/409; 381 without the relearnt
 // polarities and re-acquisition over a candidate; 377 before the blur test also kept a weakly held
 // object off its smeared edges at the start of a turn; 368 before an object lost in a fast move was
 // looked for at its prediction by its smeared reference, `tracker.fast_align_*`; 365 before a

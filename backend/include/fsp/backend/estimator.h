@@ -118,8 +118,8 @@ struct GlobalOptions {
   // when keyframe k + apply_after_keyframes arrives (earlier when a loop needs the map): keyframes
   // in the solve take its values, the ones added since move rigidly with the newest of them
   // (OKVIS2's synchronisation). With `background` the solve runs on its own thread meanwhile;
-  // without, inside AddFrame of keyframe k. Both give the same output, byte for byte. 1 (stop 27;
-  // 5 before): the window takes the global solution one keyframe later instead of five, and waits
+  // without, inside AddFrame of keyframe k. Both give the same output, byte for byte. 1 (against
+  // 5): the window takes the global solution one keyframe later instead of five, and waits
   // for it when it is not done (backend/README.md, "Schedule")...
   int apply_after_keyframes = 1;
   // ...plus one keyframe per this many keyframes in the solve: a solve's cost grows with the
