@@ -315,6 +315,8 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.tracker.fast_align_max_shift_px", &f.tracker.fast_align_max_shift_px,
        kNonNegative},
       {"frontend.tracker.fast_align_min_ncc", &f.tracker.fast_align_min_ncc, kNonNegative},
+      {"frontend.tracker.outline_px", &f.tracker.outline_px, kNonNegative},
+      {"frontend.tracker.max_unsupported_frames", &f.tracker.max_unsupported_frames, kNonNegative},
       {"frontend.tracker.min_appearance", &f.tracker.min_appearance, kNonNegative},
       {"frontend.tracker.min_visible", &f.tracker.min_visible, kNonNegative},
       {"frontend.tracker.refresh_every", &f.tracker.refresh_every, kNonNegative},

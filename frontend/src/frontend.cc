@@ -174,6 +174,7 @@ bool FrontEnd::Impl::TrackAll(FrameWork* w) {
       w->score[t.id] = t.score;
       if (t.blurred) w->blurred.insert(t.id);
       if (t.edge_refined) w->edge_fitted.insert(t.id);
+      if (t.outline_off) w->outline_off.insert(t.id);
       continue;
     }
     info.active = false;
@@ -245,7 +246,7 @@ void FrontEnd::Impl::Emit(int64_t t_ns, FrameWork* w) {
       const ObjectInfo& info = objects[id];
       const bool by_track = source == &w->tracked;
       if (!info.confirmed) continue;
-      if (by_track && w->from_detection.count(id)) continue;
+      if (by_track && (w->from_detection.count(id) || w->outline_off.count(id))) continue;
       ObjectObservation obs;
       const auto partial = by_track ? w->out_of_view.find(id) : w->out_of_view.end();
       if (partial != w->out_of_view.end()) {

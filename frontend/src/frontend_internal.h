@@ -110,6 +110,7 @@ struct FrontEnd::Impl {
     // still since the previous frame (FrontEndOptions::edge_sigma_min_motion_px).
     std::set<int> coarse;
     std::set<int> edge_fitted;  // tracked with corners fitted to the edges in this frame
+    std::set<int> outline_off;  // tracked with its outline off the edges: not reported
   };
 
   // frontend.cc

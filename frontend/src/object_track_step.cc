@@ -391,7 +391,15 @@ TrackedObject ObjectTracker::Impl::TrackOne(Object* ob, const cv::Mat& gray,
     t.appearance = Appearance(*ob, levels, H_final, &visible);
     lost = visible < o.min_visible || t.appearance < o.min_appearance;
   }
-  if (lost) {
+  bool outline_lost = false;
+  if (!lost && o.max_unsupported_frames > 0 && ob->side_sign[0] != 0) {
+    t.outline_off = UnsupportedSides(gray, final_corners) >= 2;
+    if (!t.blurred) {  // a smeared frame neither counts nor resets
+      ob->unsupported_frames = t.outline_off ? ob->unsupported_frames + 1 : 0;
+      outline_lost = ob->unsupported_frames >= o.max_unsupported_frames;
+    }
+  }
+  if (lost) {  // the keypoints lost it: a fast move?
     const Corners pred = CornersOf(*ob, H_pred), last = CornersOf(*ob, ob->H);
     Corners motion;
     for (int i = 0; i < 4; ++i) motion[i] = pred[i] - last[i];
@@ -401,7 +409,7 @@ TrackedObject ObjectTracker::Impl::TrackOne(Object* ob, const cv::Mat& gray,
       t.fast = t.blurred = !lost;
     }
   }
-  if (lost) {
+  if (lost || outline_lost) {
     ob->active = false;
     ob->pt_obj.clear();
     ob->pt_img.clear();

@@ -77,6 +77,8 @@ bool ObjectTrackerOptions::Check(std::string* why) const {
   if (!(fast_align_max_shift_px > 0.0)) return fail("fast_align_max_shift_px must be > 0");
   if (!(fast_align_min_ncc >= 0.0 && fast_align_min_ncc <= 1.0))
     return fail("fast_align_min_ncc must be in [0, 1]");
+  if (!(outline_px > 0.0)) return fail("outline_px must be > 0");
+  if (max_unsupported_frames < 0) return fail("max_unsupported_frames must be >= 0");
   if (!(min_appearance >= -1.0 && min_appearance <= 1.0))
     return fail("min_appearance must be in [-1, 1]");
   if (!(min_visible > 0.0 && min_visible <= 1.0)) return fail("min_visible must be in (0, 1]");
@@ -228,6 +230,41 @@ std::array<double, 4> ObjectTracker::Impl::SideSharpness(const cv::Mat& gray, co
   return out;
 }
 
+// The sides of quad C (undistorted px) that lie in the image but off the image's edges: at fewer
+// than a third of 9 places along the side's middle does the grey level change across it by at least
+// min_edge_gradient per px within outline_px (scaled by the image's longer side / 640) of it (on
+// the smoothed image, either polarity: a thin frame offers both, and a smeared edge is a ramp
+// without a peak). A side with fewer than 5 of its places in the image is not counted.
+int ObjectTracker::Impl::UnsupportedSides(const cv::Mat& gray, const Corners& c) {
+  const double tolerance = o.outline_px * std::max(1.0, std::max(gray.cols, gray.rows) / 640.0);
+  if (!SmoothForEdgeRefine(gray, Box(c, tolerance + 9.0), &smooth)) return 0;
+  const int m = static_cast<int>(std::ceil(2.0 * tolerance)) + 1;  // samples 0.5 px apart each side
+  std::vector<double> v(2 * m + 1);
+  int unsupported = 0;
+  for (int i = 0; i < 4; ++i) {
+    const Vec2 P = c[(i + 3) % 4], Q = c[i];
+    const Vec2 u = (Q - P).normalized(), n(-u.y(), u.x());
+    int searched = 0, found = 0;
+    for (int k = 0; k < 9; ++k) {
+      const Vec2 b = P + (0.15 + 0.7 * k / 8.0) * (Q - P);
+      bool inside = true;
+      for (int j = -m; j <= m && inside; ++j) {
+        const Vec2 d = ToDistorted(b + 0.5 * j * n);
+        inside = rect_internal::Bilinear(smooth, d.x(), d.y(), &v[j + m]);
+      }
+      if (!inside) continue;
+      ++searched;
+      double steepest = 0.0;  // grey levels per px, over 1 px centred within the tolerance
+      for (int j = 1; j < 2 * m; ++j)
+        if (std::abs(0.5 * (j - m)) <= tolerance)
+          steepest = std::max(steepest, std::abs(v[j + 1] - v[j - 1]));
+      found += steepest >= o.min_edge_gradient ? 1 : 0;
+    }
+    if (searched >= 5 && 3 * found < searched) ++unsupported;
+  }
+  return unsupported;
+}
+
 bool ObjectTracker::Impl::Init(Object* ob, const cv::Mat& gray, const Corners& corners,
                                bool build_model, const std::array<int, 4>& side_sign) {
   if (!IsConvex(corners) || ShortestSide(corners) < o.min_side_px) return false;
@@ -254,6 +291,7 @@ bool ObjectTracker::Impl::Init(Object* ob, const cv::Mat& gray, const Corners& c
   ob->pt_obj.clear();
   ob->pt_img.clear();
   ob->frames_since_refresh = 0;
+  ob->unsupported_frames = 0;
   if (build_model) {
     Warp(*ob, AppearanceLevels(gray), H, &ob->ref, &ob->ref_valid);
     cv::Scalar mean, sd;

@@ -65,7 +65,8 @@ struct ObjectTracker::Impl {
     std::vector<Vec2> pt_obj;         // flow points in the object plane
     std::vector<cv::Point2f> pt_img;  // and in the last frame (distorted px)
     int frames_since_refresh = 0;
-    int seeded = 0;  // flow points right after the last seeding
+    int seeded = 0;              // flow points right after the last seeding
+    int unsupported_frames = 0;  // sharp frames in a row with its outline off the edges
   };
 
   // One object's point correspondences in one frame (TrackOne): the flow points that survived,
@@ -154,6 +155,7 @@ struct ObjectTracker::Impl {
   Consensus FitHomography(const Object& ob, const Mat3& H_pred, const Correspondences& c,
                           bool recovered) const;
   std::array<double, 4> SideSharpness(const cv::Mat& gray, const Corners& c);
+  int UnsupportedSides(const cv::Mat& gray, const Corners& c);
   bool Smeared(Object* ob, const cv::Mat& gray, const Corners& c);
   bool RefineOnEdges(Object* ob, const cv::Mat& gray, const Consensus& k, bool recovered,
                      Corners* final_corners, Mat3* H_final, bool* blurred);

@@ -135,6 +135,21 @@ struct ObjectTrackerOptions {
   double fast_align_min_motion_px = 15.0;
   double fast_align_max_shift_px = 5.0;
   double fast_align_min_ncc = 0.9;
+  // --- outline check ---
+  // Keypoints can slide off an object while the appearance check still passes: on a glossy
+  // screen they follow the reflections, which move with the viewpoint (seen on the DM-VIO walk:
+  // the quad seconds off its screen, tens of px into the wall). So the object's sides must stay on
+  // the image's edges: a side is supported when at a third or more of 9 places along its middle
+  // the grey level changes across it by at least min_edge_gradient per px within outline_px of it
+  // (either polarity; a smeared edge is a ramp without a peak) [px of the image scaled to 640 px
+  // on its longer side: 3 px on a 1280 x 720 frame, whose corners the detector finds at half
+  // size]. An object whose outline is known with two or more of its sides in view unsupported is
+  // not reported in that frame (outline_off); after max_unsupported_frames sharp frames in a row
+  // so, it is lost (the detector finds it again where it is). Rendered scenes from pixels (room,
+  // hall, paper flight, hand-held walk, blur clip): no frame so; the walk's sliding screens: up to
+  // a dozen frames in a row (frontend/README.md, "Outline check"). 0: off.
+  double outline_px = 1.5;
+  int max_unsupported_frames = 8;
   // --- appearance check ---
   // Appearance check: least normalised cross-correlation between the reference patch and the frame
   // warped into it through the tracked homography [-1, 1]. Measured on synthetic sequences: right
@@ -165,9 +180,10 @@ struct TrackedObject {
   bool edge_refined = false;    // corners came from the edge refinement
   bool blurred = false;         // its sides are smeared in this frame (blur_sharpness_ratio)
   bool aligned = false;         // corners from the alignment to the reference (blur_align_*)
-  bool fast = false;        // lost by the keypoints in a fast move, found by the smeared reference
-  double appearance = 0.0;  // NCC of the appearance check
-  double score = 0.0;       // confidence in [0, 1]
+  bool fast = false;         // lost by the keypoints in a fast move, found by the smeared reference
+  bool outline_off = false;  // two or more sides in view off the image's edges (outline check)
+  double appearance = 0.0;   // NCC of the appearance check
+  double score = 0.0;        // confidence in [0, 1]
 };
 
 class ObjectTracker {
