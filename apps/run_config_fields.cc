@@ -70,6 +70,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.zero_velocity.max_turn_rate", &e.zero_velocity.max_turn_rate, kPositive},
       {"estimator.zero_velocity.confidence", &e.zero_velocity.confidence, Range{0.5, true, 1.0}},
       {"estimator.zero_velocity.velocity_sigma", &e.zero_velocity.velocity_sigma, kPositive},
+      {"estimator.zero_velocity.min_points", &e.zero_velocity.min_points, kNonNegative},
       {"estimator.faults.max_imu_gap_s", &e.faults.max_imu_gap_s, kPositive},
       {"estimator.faults.gap_max_acc", &e.faults.gap_max_acc, kPositive},
       {"estimator.faults.gap_max_rate", &e.faults.gap_max_rate, kPositive},

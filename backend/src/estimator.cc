@@ -63,9 +63,12 @@ bool GlobalOptions::Check(std::string* why) const {
 }
 
 bool ZeroVelocityOptions::Check(std::string* why) const {
-  const bool ok =
-      max_turn_rate > 0.0 && confidence > 0.5 && confidence < 1.0 && velocity_sigma > 0.0;
-  if (why) *why = ok ? "" : "max_turn_rate and velocity_sigma must be > 0, confidence in (0.5, 1)";
+  const bool ok = max_turn_rate > 0.0 && confidence > 0.5 && confidence < 1.0 &&
+                  velocity_sigma > 0.0 && min_points >= 0;
+  if (why)
+    *why = ok ? ""
+              : "max_turn_rate and velocity_sigma must be > 0, confidence in (0.5, 1), "
+                "min_points >= 0";
   return ok;
 }
 
@@ -217,7 +220,19 @@ bool Estimator::Impl::Still(const Keyframe& prev, const Keyframe& kf) const {
     for (const ObjectObservation& p : still_reference)
       if (p.object_id == o.object_id && p.Complete() && o.Complete())
         pairs.emplace_back(p.corners, o.corners);
-  return TestCornerMotion(pairs, options.factor.sigma_px, z.confidence).still;
+  if (!pairs.empty() || z.min_points == 0 || kf.points.empty())
+    return TestCornerMotion(pairs, options.factor.sigma_px, z.confidence).still;
+  // No object in both: the points both see (each displacement in its own noise).
+  std::map<int64_t, const PointObservation*> before;
+  for (const PointObservation& p : still_point_reference) before[p.point_id] = &p;
+  std::vector<Vec2> displacements;
+  for (const PointObservation& p : kf.points) {
+    const auto it = before.find(p.point_id);
+    if (it != before.end())
+      displacements.push_back((p.uv_undistorted - it->second->uv_undistorted) /
+                              (options.points.sigma_px * p.sigma_scale));
+  }
+  return TestPointMotion(displacements, z.min_points, z.confidence).still;
 }
 
 void Estimator::Impl::Restart(const std::string& why) {
@@ -387,7 +402,10 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
         z.emplace_back(from, to);
     }
   }
-  if (kf->keyframe && !kf->still) still_reference = kf->observations;
+  if (kf->keyframe && !kf->still) {
+    still_reference = kf->observations;
+    still_point_reference = kf->points;
+  }
   keyframes.push_back(std::move(kf));
   output.push_back(keyframes.back()->state.ToStateSample());
   if (keyframes.back()->keyframe) ++summary.keyframes;

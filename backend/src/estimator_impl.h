@@ -242,12 +242,14 @@ struct Estimator::Impl {
   const StartView* WaitingStart(int object_id) const;
 
   // Whether the vehicle stood still between keyframes `prev` and `kf` (ZeroVelocityOptions): no
-  // mean turn since `prev`, and the objects `kf` shares with still_reference where they were then.
+  // mean turn since `prev`, and the objects `kf` shares with still_reference where they were then
+  // (without one, its points where still_point_reference had them).
   bool Still(const Keyframe& prev, const Keyframe& kf) const;
   // The observations of the newest keyframe not found standing still: a stand-still is tested
   // against where it began, not against the previous keyframe, so that a slow motion (a take-off)
   // cannot pass as a series of steps each below the corner noise.
   std::vector<ObjectObservation> still_reference;
+  std::vector<PointObservation> still_point_reference;  // its points
 
   // A standing-still keyframe's prior: zero velocity, the biases free.
   ceres::CostFunction* MakeZeroVelocityPrior(const Keyframe& kf) const;

@@ -45,4 +45,20 @@ CornerMotionTest TestCornerMotion(const std::vector<std::pair<Corners, Corners>>
   return t;
 }
 
+PointMotionTest TestPointMotion(const std::vector<Vec2>& displacements_sigma, int min_points,
+                                double confidence) {
+  PointMotionTest t;
+  t.points = static_cast<int>(displacements_sigma.size());
+  if (t.points == 0) return t;
+  Vec2 mean = Vec2::Zero();
+  for (const Vec2& d : displacements_sigma) {
+    mean += d / t.points;
+    t.whole_chi2 += 0.5 * d.squaredNorm();
+  }
+  t.shift_chi2 = 0.5 * t.points * mean.squaredNorm();
+  t.still = t.points >= min_points && t.shift_chi2 <= ChiSquareQuantile(confidence, 2) &&
+            t.whole_chi2 <= ChiSquareQuantile(confidence, 2 * t.points);
+  return t;
+}
+
 }  // namespace fsp::backend

@@ -1,6 +1,6 @@
 // The image half of the zero-velocity detection (zero_velocity.h): the chi-square quantile, and the
-// corner-motion tests on synthetic objects at a given corner noise, standing still and moving
-// slowly.
+// corner-motion tests on synthetic objects (and the point-motion tests on synthetic points) at a
+// given noise, standing still and moving slowly.
 #include <cmath>
 #include <random>
 #include <utility>
@@ -82,6 +82,48 @@ TEST(ZeroVelocity, NoSharedObjectIsNotStill) {
   const CornerMotionTest t = TestCornerMotion({}, 1.0, 0.95);
   EXPECT_EQ(t.objects, 0);
   EXPECT_FALSE(t.still);
+}
+
+// 60 points spread over a 640 x 480 image, seen twice with noise sigma_px per coordinate; between
+// the two views every point moves by `shift` and away from the image centre by `spread` times its
+// distance from it (an approach) [px]. The fraction of trials taken as still.
+double PointStillRate(double sigma_px, const Vec2& shift, double spread, int trials = 2000) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, sigma_px);
+  std::uniform_real_distribution<double> x(0.0, 640.0), y(0.0, 480.0);
+  std::vector<Vec2> points;
+  for (int i = 0; i < 60; ++i) points.emplace_back(x(rng), y(rng));
+  const Vec2 centre(320.0, 240.0);
+  int still = 0;
+  for (int t = 0; t < trials; ++t) {
+    std::vector<Vec2> d;
+    for (const Vec2& p : points) {
+      const Vec2 a = p + Vec2(noise(rng), noise(rng));
+      const Vec2 b = p + shift + spread * (p - centre) + Vec2(noise(rng), noise(rng));
+      d.push_back((b - a) / sigma_px);
+    }
+    if (TestPointMotion(d, 10, 0.95).still) ++still;
+  }
+  return static_cast<double>(still) / trials;
+}
+
+TEST(ZeroVelocity, PointsStandInWithoutAnObject) {
+  for (const double sigma : {0.3, 1.0}) {  // standing still: ~0.95² pass
+    const double rate = PointStillRate(sigma, Vec2::Zero(), 0.0);
+    EXPECT_GT(rate, 0.88) << sigma;
+    EXPECT_LT(rate, 0.97) << sigma;
+  }
+  // 60 points average the noise of their mean (1 px x sqrt(2 / 60) = 0.18 px per coordinate): a
+  // 0.8 px shift at 1 px noise is found, 0.1 px is not.
+  EXPECT_LT(PointStillRate(1.0, Vec2(0.8, 0.0), 0.0), 0.1);
+  EXPECT_GT(PointStillRate(1.0, Vec2(0.1, 0.0), 0.0), 0.8);
+  // An approach (points spreading by 1 % of their distance from the centre, 0-4 px) leaves the
+  // mean in place: the whole test finds it.
+  EXPECT_LT(PointStillRate(1.0, Vec2::Zero(), 0.01), 0.1);
+  // Too few points shared: not taken as still.
+  const PointMotionTest few = TestPointMotion(std::vector<Vec2>(9, Vec2::Zero()), 10, 0.95);
+  EXPECT_EQ(few.points, 9);
+  EXPECT_FALSE(few.still);
 }
 
 }  // namespace

@@ -177,6 +177,10 @@ struct ZeroVelocityOptions {
   // velocity has a still IMU too).
   double confidence = 0.75;
   double velocity_sigma = 0.01;  // σ of the zero-velocity prior [m/s]
+  // With points in use and no object both keyframes see, at least this many tracked points both
+  // see stand in (the same two tests, each point in its noise; zero_velocity.h): a start standing
+  // in front of a blank or textured wall is held still too. 0: objects only.
+  int min_points = 10;
   bool Check(std::string* why) const;
 };
 

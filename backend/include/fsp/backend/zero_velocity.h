@@ -12,6 +12,10 @@
 //    mean in place (an approach: the object grows about its centre).
 // No fixed pixel bound: with the corner noise the estimator assumes (FspFactorOptions::sigma_px) a
 // still camera passes whatever the noise, and the smallest motion it can tell grows with σ.
+//
+// Without an object in both keyframes, the tracked points both see stand in (TestPointMotion): the
+// shift is their mean displacement, N|d̄|²/(2σ²) ~ χ²(2) (a turn or a sideways move shifts them
+// all), the whole Σ|d|²/(2σ²) ~ χ²(2N), each point in its own σ.
 #pragma once
 
 #include <utility>
@@ -36,5 +40,17 @@ struct CornerMotionTest {
 // corner noise sigma_px [px] per coordinate and the given confidence (e.g. 0.99).
 CornerMotionTest TestCornerMotion(const std::vector<std::pair<Corners, Corners>>& pairs,
                                   double sigma_px, double confidence);
+
+struct PointMotionTest {
+  int points = 0;           // points seen by both keyframes
+  double shift_chi2 = 0.0;  // N|d̄|²/(2σ²) of the mean displacement in σ units, dof 2
+  double whole_chi2 = 0.0;  // Σ|d|²/(2σ²), dof 2N
+  bool still = false;       // points >= min_points and both below their quantile
+};
+
+// The two tests on the displacements of the same points between two keyframes, each divided by
+// its point's noise σ [px] per coordinate (so in σ units), at the given confidence.
+PointMotionTest TestPointMotion(const std::vector<Vec2>& displacements_sigma, int min_points,
+                                double confidence);
 
 }  // namespace fsp::backend
