@@ -211,7 +211,7 @@ struct Estimator::Impl {
   // or with a depth on the range's bounds.
   void RemovePointOutliers();
   // Keyframe `old` leaves the window: its views leave their tracks; points anchored at it move into
-  // their next view's keyframe (or are dropped).
+  // their next view's keyframe (or are dropped; still tracked, they enter again as new landmarks).
   void ReanchorPointsOf(Keyframe* old);
   void StopPoint(PointTrack* t) {
     t->live = false;

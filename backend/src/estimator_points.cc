@@ -240,6 +240,9 @@ void Estimator::Impl::ReanchorPointsOf(Keyframe* old) {
       if (!ok) {
         StopPoint(&t);
         ++summary.points_dropped;
+        // Its views so far are in the prior now; still tracked, it enters again as a new landmark
+        // from its next keyframes' views (as Basalt's landmarks when their host leaves).
+        t.views.clear();
       }
     }
     if (t.views.empty()) {

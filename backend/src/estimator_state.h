@@ -95,7 +95,7 @@ struct PointTrack {
   std::vector<View> views;  // window keyframes that saw it, oldest first
   bool live = false;
   bool used = false;       // entered the window once (summary.points_used)
-  bool dead = false;       // dropped (outlier, anchor left): never enters again
+  bool dead = false;       // dropped as an outlier: never enters again
   bool accounted = false;  // its track length is in summary.point_track_keyframes
   int keyframes_seen = 0;  // keyframes that saw it
   Keyframe* anchor = nullptr;

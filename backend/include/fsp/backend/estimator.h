@@ -230,10 +230,11 @@ struct PointOptions {
   // Without them the window's position and yaw keep only the IMU chain's prior and wander where no
   // object holds them (a 14 s flight through random points: the last window slid 31 cm).
   bool marginalize = true;
-  // ...and each such point is dropped (false), or moves into the next keyframe that sees it, its
-  // bearing from that view, its depth from the estimate (true; VINS-Mono's, whose later views then
-  // count twice: once in the prior, once as factors). Measured (backend/README.md, "Points"), the
-  // room without objects from pixels: re-anchored 47 cm ATE, dropped 7.3 cm; the room: 0.225 /
+  // ...and each such point is dropped (false; still tracked, it enters again as a new landmark
+  // from its later keyframes' views, as Basalt's), or moves into the next keyframe that sees it,
+  // its bearing from that view, its depth from the estimate (true; VINS-Mono's, whose later views
+  // then count twice: once in the prior, once as factors). Measured (backend/README.md, "Points"),
+  // the room without objects from pixels: re-anchored 47 cm ATE, dropped 7.3 cm; the room: 0.225 /
   // 0.224 cm.
   bool reanchor = false;
   // The global step holds no points: a keyframe that saw points but no object, in a stretch
