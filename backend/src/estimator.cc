@@ -230,7 +230,7 @@ bool Estimator::Impl::Still(const Keyframe& prev, const Keyframe& kf) const {
     const auto it = before.find(p.point_id);
     if (it != before.end())
       displacements.push_back((p.uv_undistorted - it->second->uv_undistorted) /
-                              (options.points.sigma_px * p.sigma_scale));
+                              PointSigmaPx(p.sigma_scale));
   }
   return TestPointMotion(displacements, z.min_points, z.confidence).still;
 }

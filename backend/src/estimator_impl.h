@@ -196,7 +196,11 @@ struct Estimator::Impl {
   // window (triangulated, longest-tracked first, up to max_points live).
   void AddPointViews(Keyframe* kf);
   bool TriangulatePoint(PointTrack* t) const;
-  // The factor options of a point's views: points.sigma_px times its sigma_scale.
+  // A point's pixel noise σ: points.sigma_px times its PointObservation::sigma_scale (at least 1).
+  double PointSigmaPx(double sigma_scale) const {
+    return options.points.sigma_px * std::max(1.0, sigma_scale);
+  }
+  // The factor options of a point's views (σ: PointSigmaPx of its first view's scale).
   FspFactorOptions PointFactorOptions(const PointTrack& t) const;
   // Factors of every live point's views (not the anchor's) into a window problem, with ρ bounded
   // to the depth range.

@@ -50,7 +50,7 @@ Vec3 Bearing(const Mat3& K, const Vec2& uv) {
 void Estimator::Impl::AddPointViews(Keyframe* kf) {
   for (const PointObservation& p : kf->points) {
     PointTrack& t = point_tracks[p.point_id];
-    if (t.views.empty()) t.sigma_scale = std::max(1.0, p.sigma_scale);
+    if (t.views.empty()) t.sigma_scale = p.sigma_scale;
     t.views.push_back({kf, p.uv_undistorted});
     ++t.keyframes_seen;
   }
@@ -129,7 +129,7 @@ bool Estimator::Impl::TriangulatePoint(PointTrack* t) const {
 
 FspFactorOptions Estimator::Impl::PointFactorOptions(const PointTrack& t) const {
   FspFactorOptions fo = options.factor;
-  fo.sigma_px = options.points.sigma_px * t.sigma_scale;
+  fo.sigma_px = PointSigmaPx(t.sigma_scale);
   return fo;
 }
 
