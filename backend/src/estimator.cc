@@ -63,12 +63,13 @@ bool GlobalOptions::Check(std::string* why) const {
 }
 
 bool ZeroVelocityOptions::Check(std::string* why) const {
-  const bool ok = max_turn_rate > 0.0 && confidence > 0.5 && confidence < 1.0 &&
-                  velocity_sigma > 0.0 && min_points >= 0;
+  const bool ok = confidence > 0.5 && confidence < 1.0 && imu_confidence > 0.5 &&
+                  imu_confidence < 1.0 && velocity_sigma > 0.0 && turn_rate_sigma > 0.0 &&
+                  min_points >= 0;
   if (why)
     *why = ok ? ""
-              : "max_turn_rate and velocity_sigma must be > 0, confidence in (0.5, 1), "
-                "min_points >= 0";
+              : "velocity_sigma and turn_rate_sigma must be > 0, confidence and imu_confidence in "
+                "(0.5, 1), min_points >= 0";
   return ok;
 }
 
@@ -206,14 +207,15 @@ std::pair<int64_t, int64_t> Estimator::Impl::LongestImuHole(int64_t t0, int64_t 
 bool Estimator::Impl::Still(const Keyframe& prev, const Keyframe& kf) const {
   const ZeroVelocityOptions& z = options.zero_velocity;
   if (!z.enabled) return false;
-  // The mean turn rate (a vibrating vehicle, motors running on the ground, has a noisy IMU but
-  // no mean rotation).
-  const std::vector<ImuSample> samples = ImuBetween(prev.state.t_ns, kf.state.t_ns);
-  if (samples.size() < 3) return false;
-  Vec3 g_mean = Vec3::Zero();
-  for (const ImuSample& s : samples) g_mean += s.gyro;
-  g_mean /= static_cast<double>(samples.size());
-  if ((g_mean - prev.state.gyro_bias()).norm() > z.max_turn_rate) return false;
+  // The IMU agrees: no mean turn, the specific force of rest (zero_velocity.h).
+  const double dt = NsToSeconds(kf.state.t_ns - prev.state.t_ns);
+  const Vec3 rest_force =
+      prev.state.T_W_B().rotation().conjugate() * Vec3(0.0, 0.0, options.imu.gravity) +
+      prev.state.acc_bias();
+  if (!TestImuStill(ImuBetween(prev.state.t_ns, kf.state.t_ns), prev.state.gyro_bias(), rest_force,
+                    z.turn_rate_sigma, z.velocity_sigma / dt, z.imu_confidence)
+           .still)
+    return false;
   // The objects both keyframes see did not move beyond their corner noise (zero_velocity.h).
   std::vector<std::pair<Corners, Corners>> pairs;
   for (const ObjectObservation& o : kf.observations)

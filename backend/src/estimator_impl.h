@@ -257,6 +257,9 @@ struct Estimator::Impl {
 
   // A standing-still keyframe's prior: zero velocity, the biases free.
   ceres::CostFunction* MakeZeroVelocityPrior(const Keyframe& kf) const;
+  // A standing-still keyframe's link to the keyframe before it: neither moved nor turned
+  // (ZeroVelocityOptions::turn_rate_sigma). Blocks: prev's pose, kf's pose.
+  ceres::CostFunction* MakeStillLink(const Keyframe& prev, const Keyframe& kf) const;
 
   // Removes the newest frame (not a keyframe) from the window: its pose was reported, its
   // observations are forgotten, and the next frame's IMU factor starts at the last keyframe.
@@ -385,6 +388,9 @@ struct Estimator::Impl {
     kf->preint->ReintegrateIfNeeded(prev->state.gyro_bias(), prev->state.acc_bias());
     problem->AddResidualBlock(new ImuFactor(kf->preint), nullptr, prev->state.pose,
                               prev->state.speed_bias, kf->state.pose, kf->state.speed_bias);
+    if (kf->still)
+      problem->AddResidualBlock(MakeStillLink(*prev, *kf), nullptr, prev->state.pose,
+                                kf->state.pose);
   }
 
   void AddGaugePriors(ceres::Problem* problem, Keyframe* first) {

@@ -44,8 +44,16 @@ bool Estimator::Impl::TryInitialize() {
   first.t_ns = t0;
   first.SetT_W_B(Rigid3(s.state.T_W_B.rotation(), Vec3::Zero()));
   GyroBiasOf(first.speed_bias) = s.state.gyro_bias;
+  // Standing still, the mean rate is the gyroscope bias, known to the scatter of the 0.1 s block
+  // means over the root of their number (a vibrating vehicle's included), and at least to what the
+  // IMU's noise density allows in window_s (backend/README.md, "Standing still").
+  const double blocks = std::max(1.0, so.window_s / so.block_s);
+  const double gyro_bias_sigma =
+      std::min(options.prior_gyro_bias_sigma,
+               std::max(s.gyro_block_std / std::sqrt(3.0 * blocks),
+                        options.imu.noise.gyroscope_noise_density / std::sqrt(so.window_s)));
   Gauge gauge;
-  gauge.sigma_sb << Vec3::Constant(0.01), Vec3::Constant(options.prior_gyro_bias_sigma),
+  gauge.sigma_sb << Vec3::Constant(0.01), Vec3::Constant(gyro_bias_sigma),
       Vec3::Constant(options.prior_acc_bias_sigma);
   summary.init_method = "static";
   summary.init_gyro_bias = s.state.gyro_bias;

@@ -243,6 +243,13 @@ ceres::CostFunction* Estimator::Impl::MakeZeroVelocityPrior(const Keyframe& kf) 
   return new SpeedBiasPrior(still, sigma);
 }
 
+ceres::CostFunction* Estimator::Impl::MakeStillLink(const Keyframe& prev,
+                                                    const Keyframe& kf) const {
+  const double dt = NsToSeconds(kf.state.t_ns - prev.state.t_ns);
+  const ZeroVelocityOptions& z = options.zero_velocity;
+  return MakeRelativePosePrior(Rigid3::Identity(), z.velocity_sigma * dt, z.turn_rate_sigma * dt);
+}
+
 ceres::CostFunction* Estimator::Impl::MakeGapPrior(double dt_s) const {
   ImuGapPriorOptions o;
   o.max_acc = options.faults.gap_max_acc;

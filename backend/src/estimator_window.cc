@@ -176,6 +176,7 @@ void Estimator::Impl::MarginalizeIntoPrior(Keyframe* old, Keyframe* next) {
     next->preint->ReintegrateIfNeeded(old->state.gyro_bias(), old->state.acc_bias());
     add(new ImuFactor(next->preint), nullptr,
         {old->state.pose, old->state.speed_bias, next->state.pose, next->state.speed_bias});
+    if (next->still) add(MakeStillLink(*old, *next), nullptr, {old->state.pose, next->state.pose});
   }
   if (old->gauge) {
     add(MakeGaugePosePrior(*old->gauge), nullptr, {old->state.pose});

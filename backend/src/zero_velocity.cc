@@ -61,4 +61,29 @@ PointMotionTest TestPointMotion(const std::vector<Vec2>& displacements_sigma, in
   return t;
 }
 
+ImuStillTest TestImuStill(const std::vector<ImuSample>& samples, const Vec3& gyro_bias,
+                          const Vec3& rest_force, double turn_rate_floor, double acc_floor,
+                          double confidence) {
+  ImuStillTest t;
+  t.samples = static_cast<int>(samples.size());
+  if (t.samples < 3) return t;
+  const double n = t.samples;
+  Vec3 mean_w = Vec3::Zero(), mean_a = Vec3::Zero();
+  for (const ImuSample& s : samples) {
+    mean_w += s.gyro / n;
+    mean_a += s.acc / n;
+  }
+  Vec3 var_w = Vec3::Zero(), var_a = Vec3::Zero();  // of the means
+  for (const ImuSample& s : samples) {
+    var_w += (s.gyro - mean_w).cwiseAbs2() / ((n - 1.0) * n);
+    var_a += (s.acc - mean_a).cwiseAbs2() / ((n - 1.0) * n);
+  }
+  const Vec3 var_w_total = var_w + Vec3::Constant(turn_rate_floor * turn_rate_floor);
+  const Vec3 var_a_total = var_a + Vec3::Constant(acc_floor * acc_floor);
+  t.chi2 = ((mean_w - gyro_bias).cwiseAbs2().cwiseQuotient(var_w_total)).sum() +
+           ((mean_a - rest_force).cwiseAbs2().cwiseQuotient(var_a_total)).sum();
+  t.still = t.chi2 <= ChiSquareQuantile(confidence, 6);
+  return t;
+}
+
 }  // namespace fsp::backend

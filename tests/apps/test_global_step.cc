@@ -64,8 +64,11 @@ LoopRun RunLoop(const fs::path& out, const std::string& config) {
 // 13 objects matched, 3 loops closed, none rejected, 15 global solves; the window alone
 // (global.enabled false) ATE 11.9 cm, width error 4.7 cm, 12 objects, its 3 returning objects
 // started afresh. Bounds: ~50 % over that measurement, and the global step at least 3x better than
-// the window alone. Today: global step 1.43 cm (causal 3.3 cm, widths 1.2 cm, 14 objects, 54
-// solves), window alone 6.4 cm (14 objects, 3 started afresh).
+// the window alone. Since the window keeps the gyroscope bias the start stood still for
+// (backend/README.md, "Standing still"), the window alone drifts less in yaw: today global step
+// 1.41 cm (causal 3.3 cm, widths 1.2 cm, 14 objects), window alone 3.1 cm (6.4 with the start's
+// bias given σ 0.01 rad/s; 14 objects, 3 started afresh). So the global step's own bound is ~50 %
+// over today's 1.41 cm, and it must stay 1.5x better than the window alone (measured 2.2x).
 TEST(GlobalStep, ClosesTheRoomLoopWithOneIdentityPerObject) {
   const fs::path dir = test::ScratchDir();
   const LoopRun on = RunLoop(dir / "global", "");
@@ -81,10 +84,10 @@ TEST(GlobalStep, ClosesTheRoomLoopWithOneIdentityPerObject) {
   EXPECT_GT(off.run["global"]["objects_reinitialized"].get<int>(), 0);
   EXPECT_EQ(off.run["global"]["solves"].get<int>(), 0);
   EXPECT_EQ(on.causal_poses, test::kRoomLoopFrames);
-  EXPECT_LT(on.ate, 0.045);
+  EXPECT_LT(on.ate, 0.022);
   EXPECT_LT(on.causal_ate, 0.10);
   EXPECT_LT(on.width_mean, 0.035);
-  EXPECT_LT(3.0 * on.ate, off.ate);
+  EXPECT_LT(1.5 * on.ate, off.ate);
   EXPECT_GE(on.objects, off.objects);
 }
 

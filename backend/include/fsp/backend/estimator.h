@@ -158,15 +158,19 @@ struct GlobalOptions {
   bool Check(std::string* why) const;
 };
 
-// Zero-velocity detection (backend/README.md, "Standing still"): a keyframe that did not turn since
-// the previous keyframe and whose objects did not move in the image gets a zero-velocity prior, so
-// that a vehicle standing still does not drift on the IMU's noise.
+// Zero-velocity detection (backend/README.md, "Standing still"): a keyframe whose IMU agrees with
+// standing still since the previous keyframe and whose objects did not move in the image gets a
+// zero-velocity prior and a still link to the previous keyframe, so that a vehicle standing still
+// does not drift on the IMU's noise and its gyroscope bias is the mean rate it stood still with.
 struct ZeroVelocityOptions {
   bool enabled = true;
-  // The mean turn rate since the previous keyframe, without the estimated gyroscope bias, is
-  // below this (the IMU's spread is not a test: on the ground with motors running a vehicle
-  // vibrates, EuRoC V1_01: accelerometer std 0.6-2 m/s^2) [rad/s].
-  double max_turn_rate = 0.02;
+  // The IMU since the previous keyframe agrees with standing still: its mean turn rate is the
+  // estimated gyroscope bias, its mean specific force gravity's plus the accelerometer bias, each
+  // to the samples' own scatter (a vehicle vibrating on the ground, EuRoC V1_01: accelerometer std
+  // 0.6-2 m/s^2, has no mean motion) and at least turn_rate_sigma, velocity_sigma / Δt; one χ²(6)
+  // accepted below this quantile (zero_velocity.h). It tells what the image cannot: a hover that
+  // turns at 0.01 rad/s, a take-off's first 0.2 s.
+  double imu_confidence = 0.99;
   // The corners of the objects seen by both keyframes moved no more than their noise (the
   // observation σ, FspFactorOptions::sigma_px) explains: two chi-square tests (zero_velocity.h),
   // each accepted below this quantile. Lower: a slow motion is found sooner, a still keyframe is
@@ -177,6 +181,11 @@ struct ZeroVelocityOptions {
   // velocity has a still IMU too).
   double confidence = 0.75;
   double velocity_sigma = 0.01;  // σ of the zero-velocity prior [m/s]
+  // Standing still, the camera does not turn either: between a still keyframe and the one before
+  // it a relative-pose prior holds the rotation to turn_rate_sigma Δt (and the position to
+  // velocity_sigma Δt). Through the IMU factor it gives the gyroscope bias the whole stand-still's
+  // mean rate, not only the still start's first second (backend/README.md, "Standing still").
+  double turn_rate_sigma = 1e-3;  // [rad/s]
   // With points in use and no object both keyframes see, at least this many tracked points both
   // see stand in (the same two tests, each point in its noise; zero_velocity.h): a start standing
   // in front of a blank or textured wall is held still too. 0: objects only.
@@ -309,8 +318,10 @@ struct EstimatorOptions {
   // when the frames carry points (AddFrame's POINTS): a hand-held start without a whole rectangle.
   // Its first state's velocity gets the same prior σ, its gyroscope bias prior_gyro_bias_sigma.
   PointInitOptions point_init;
-  // Prior on the initial biases: the static start gives the gyro bias well; the accelerometer bias
-  // is only known to be small.
+  // Prior on the initial biases: the accelerometer bias is only known to be small; the gyro bias
+  // from a start in motion to prior_gyro_bias_sigma, from a still start to what its mean rate
+  // measured (the scatter of its block means, at least the noise density over window_s; at most
+  // prior_gyro_bias_sigma).
   double prior_gyro_bias_sigma = 0.01;  // [rad/s]
   double prior_acc_bias_sigma = 0.2;    // [m/s^2]
   // Weak prior on each object's log inverse depth around its single-view (class prior) value, as a
