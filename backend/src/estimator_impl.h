@@ -379,31 +379,23 @@ struct Estimator::Impl {
     problem->AddParameterBlock(kf->state.speed_bias, kSpeedBiasSize);
   }
 
-  void AddImuFactor(ceres::Problem* problem, Keyframe* prev, Keyframe* kf) {
-    if (kf->imu_gap_s > 0.0) {
-      problem->AddResidualBlock(MakeGapPrior(kf->imu_gap_s), nullptr, prev->state.pose,
-                                prev->state.speed_bias, kf->state.pose, kf->state.speed_bias);
-      return;
-    }
-    kf->preint->ReintegrateIfNeeded(prev->state.gyro_bias(), prev->state.acc_bias());
-    problem->AddResidualBlock(new ImuFactor(kf->preint), nullptr, prev->state.pose,
-                              prev->state.speed_bias, kf->state.pose, kf->state.speed_bias);
-    if (kf->still)
-      problem->AddResidualBlock(MakeStillLink(*prev, *kf), nullptr, prev->state.pose,
-                                kf->state.pose);
+  // What ties KF to PREV through the IMU: the IMU factor (across an IMU gap the gap prior) and,
+  // standing still, the still link; each with its parameter blocks. The window, the global step and
+  // the marginalisation all take these.
+  struct Link {
+    ceres::CostFunction* cost;
+    std::vector<double*> blocks;
+  };
+  std::vector<Link> ImuLink(Keyframe* prev, Keyframe* kf) const;
+  void AddImuFactor(ceres::Problem* problem, Keyframe* prev, Keyframe* kf) const {
+    for (Link& l : ImuLink(prev, kf)) problem->AddResidualBlock(l.cost, nullptr, l.blocks);
   }
 
-  void AddGaugePriors(ceres::Problem* problem, Keyframe* first) {
-    // Position and yaw pinned (gauge); roll/pitch as well known as the start gives them.
-    problem->AddResidualBlock(MakeGaugePosePrior(*first->gauge), nullptr, first->state.pose);
-    problem->AddResidualBlock(MakeGaugeBiasPrior(*first->gauge), nullptr, first->state.speed_bias);
-  }
-  static ceres::CostFunction* MakeGaugePosePrior(const Gauge& g) {
-    return new PosePrior(g.T_W_B0, g.sigma_p, g.sigma_roll_pitch, g.sigma_yaw);
-  }
-  static ceres::CostFunction* MakeGaugeBiasPrior(const Gauge& g) {
-    return new SpeedBiasPrior(g.sb0, g.sigma_sb);
-  }
+  // Position and yaw pinned (gauge); roll/pitch and the biases as well known as the start gives
+  // them.
+  void AddGaugePriors(ceres::Problem* problem, Keyframe* first) const;
+  static ceres::CostFunction* MakeGaugePosePrior(const Gauge& g);
+  static ceres::CostFunction* MakeGaugeBiasPrior(const Gauge& g);
   // Bridges an IMU gap of dt_s seconds (FaultOptions): a constant-velocity motion prior.
   ceres::CostFunction* MakeGapPrior(double dt_s) const;
 

@@ -44,13 +44,11 @@ bool Estimator::Impl::TryInitialize() {
   first.t_ns = t0;
   first.SetT_W_B(Rigid3(s.state.T_W_B.rotation(), Vec3::Zero()));
   GyroBiasOf(first.speed_bias) = s.state.gyro_bias;
-  // Standing still, the mean rate is the gyroscope bias, known to the scatter of the 0.1 s block
-  // means over the root of their number (a vibrating vehicle's included), and at least to what the
-  // IMU's noise density allows in window_s (backend/README.md, "Standing still").
-  const double blocks = std::max(1.0, so.window_s / so.block_s);
+  // Standing still, the mean rate is the gyroscope bias, known as the start measured it, at least
+  // to what the IMU's noise density allows in window_s (backend/README.md, "Standing still").
   const double gyro_bias_sigma =
       std::min(options.prior_gyro_bias_sigma,
-               std::max(s.gyro_block_std / std::sqrt(3.0 * blocks),
+               std::max(s.gyro_mean_sigma,
                         options.imu.noise.gyroscope_noise_density / std::sqrt(so.window_s)));
   Gauge gauge;
   gauge.sigma_sb << Vec3::Constant(0.01), Vec3::Constant(gyro_bias_sigma),

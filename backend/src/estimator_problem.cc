@@ -250,6 +250,31 @@ ceres::CostFunction* Estimator::Impl::MakeStillLink(const Keyframe& prev,
   return MakeRelativePosePrior(Rigid3::Identity(), z.velocity_sigma * dt, z.turn_rate_sigma * dt);
 }
 
+void Estimator::Impl::AddGaugePriors(ceres::Problem* problem, Keyframe* first) const {
+  problem->AddResidualBlock(MakeGaugePosePrior(*first->gauge), nullptr, first->state.pose);
+  problem->AddResidualBlock(MakeGaugeBiasPrior(*first->gauge), nullptr, first->state.speed_bias);
+}
+
+ceres::CostFunction* Estimator::Impl::MakeGaugePosePrior(const Gauge& g) {
+  return new PosePrior(g.T_W_B0, g.sigma_p, g.sigma_roll_pitch, g.sigma_yaw);
+}
+
+ceres::CostFunction* Estimator::Impl::MakeGaugeBiasPrior(const Gauge& g) {
+  return new SpeedBiasPrior(g.sb0, g.sigma_sb);
+}
+
+std::vector<Estimator::Impl::Link> Estimator::Impl::ImuLink(Keyframe* prev, Keyframe* kf) const {
+  if (kf->imu_gap_s > 0.0)
+    return {{MakeGapPrior(kf->imu_gap_s),
+             {prev->state.pose, prev->state.speed_bias, kf->state.pose, kf->state.speed_bias}}};
+  kf->preint->ReintegrateIfNeeded(prev->state.gyro_bias(), prev->state.acc_bias());
+  std::vector<Link> link = {
+      {new ImuFactor(kf->preint),
+       {prev->state.pose, prev->state.speed_bias, kf->state.pose, kf->state.speed_bias}}};
+  if (kf->still) link.push_back({MakeStillLink(*prev, *kf), {prev->state.pose, kf->state.pose}});
+  return link;
+}
+
 ceres::CostFunction* Estimator::Impl::MakeGapPrior(double dt_s) const {
   ImuGapPriorOptions o;
   o.max_acc = options.faults.gap_max_acc;

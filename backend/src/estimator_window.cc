@@ -169,15 +169,8 @@ void Estimator::Impl::MarginalizeIntoPrior(Keyframe* old, Keyframe* next) {
   };
   manifolds[old->state.pose] = &pose_manifold;
   manifolds[next->state.pose] = &pose_manifold;
-  if (next->imu_gap_s > 0.0) {
-    add(MakeGapPrior(next->imu_gap_s), nullptr,
-        {old->state.pose, old->state.speed_bias, next->state.pose, next->state.speed_bias});
-  } else if (!next->gauge) {
-    next->preint->ReintegrateIfNeeded(old->state.gyro_bias(), old->state.acc_bias());
-    add(new ImuFactor(next->preint), nullptr,
-        {old->state.pose, old->state.speed_bias, next->state.pose, next->state.speed_bias});
-    if (next->still) add(MakeStillLink(*old, *next), nullptr, {old->state.pose, next->state.pose});
-  }
+  if (next->imu_gap_s > 0.0 || !next->gauge)
+    for (Link& l : ImuLink(old, next)) add(l.cost, nullptr, std::move(l.blocks));
   if (old->gauge) {
     add(MakeGaugePosePrior(*old->gauge), nullptr, {old->state.pose});
     add(MakeGaugeBiasPrior(*old->gauge), nullptr, {old->state.speed_bias});

@@ -100,6 +100,7 @@ StaticInitSummary StaticInitialize(const std::vector<ImuSample>& imu,
     av += (ab[b] - am).cwiseAbs2();
   }
   s.gyro_block_std = (gv / used).cwiseSqrt().norm();
+  s.gyro_mean_sigma = s.gyro_block_std / std::sqrt(3.0 * used);
   s.acc_block_std = (av / used).cwiseSqrt().norm();
   s.gravity_error = s.acc_mean.norm() - options.gravity;
 

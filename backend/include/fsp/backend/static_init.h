@@ -38,7 +38,11 @@ struct StaticInitSummary {
   Vec3 gyro_mean = Vec3::Zero(), acc_mean = Vec3::Zero();  // [rad/s], [m/s^2]
   Vec3 gyro_std = Vec3::Zero(), acc_std = Vec3::Zero();    // raw per-axis std
   double gyro_block_std = 0.0, acc_block_std = 0.0;        // the stillness measures
-  double gravity_error = 0.0;                              // |mean acc| − gravity [m/s^2]
+  // σ of gyro_mean per axis (RMS over the axes): the block means' scatter over the root of their
+  // number (a vibrating vehicle's included). The IMU's white noise alone gives at least
+  // gyroscope_noise_density / √window_s, which the estimator adds as a floor.
+  double gyro_mean_sigma = 0.0;  // [rad/s]
+  double gravity_error = 0.0;    // |mean acc| − gravity [m/s^2]
   // Body state at t_end_ns: R_W_B with R_W_B · acc_mean/|acc_mean| = e_z and yaw 0, p = 0, v = 0,
   // gyro bias = gyro_mean, acc bias = 0 (not separable from tilt from one attitude).
   StateSample state;
