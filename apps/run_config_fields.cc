@@ -247,6 +247,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"frontend.rect.continuation_start_px", &f.rect.continuation_start_px, kNonNegative},
       {"frontend.rect.continuation_frac", &f.rect.continuation_frac, kNonNegative},
       {"frontend.rect.continuation_step_px", &f.rect.continuation_step_px, kNonNegative},
+      {"frontend.rect.union_gap_frac", &f.rect.union_gap_frac, kNonNegative},
       {"frontend.rect.min_corner_reach", &f.rect.min_corner_reach, kNonNegative},
       {"frontend.rect.reach_start_px", &f.rect.reach_start_px, kNonNegative},
       {"frontend.rect.reach_min_px", &f.rect.reach_min_px, kNonNegative},

@@ -59,6 +59,7 @@ bool RectDetectorOptions::Check(std::string* why) const {
   if (!(continuation_start_px >= 0.0)) os << "continuation_start_px must be >= 0; ";
   positive(continuation_frac, "continuation_frac");
   if (!(continuation_step_px >= 0.0)) os << "continuation_step_px must be >= 0; ";
+  if (!(union_gap_frac >= 0.0 && union_gap_frac < 1.0)) os << "union_gap_frac must be in [0, 1); ";
   if (!(any_corner_min_side_frac >= 0.0)) os << "any_corner_min_side_frac must be >= 0; ";
   if (!(max_abs_cos > 0.0 && max_abs_cos <= 1.0)) os << "max_abs_cos must be in (0, 1]; ";
   if (!(rectangle_corner_px >= 0.0)) os << "rectangle_corner_px must be >= 0; ";

@@ -341,6 +341,11 @@ bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<Sid
 bool IsLCornered(const EdgeProbe& probe, const Quad& q, bool* relaxed = nullptr);
 bool IsBrightMargin(const cv::Mat& smooth, const PinholeRadtan* cam, const Corners& outer,
                     const Corners& inner, const RectDetectorOptions& o);
+// Two opposite sides both lack their edge over the same stretch across the object (facing points
+// through the other sides' vanishing point), of at least `union_gap_frac` of their samples,
+// between stretches where both have it: the quad joins two objects with background between them
+// by their collinear sides (two posters side by side).
+bool SpansTwoObjects(const EdgeProbe& probe, const Quad& q);
 
 // The verification stage on the refined quads: canonical corner order, rectangle and aspect tests,
 // every corner in view. Quads cut off by the border by a little go to `cut_off` (containers for

@@ -95,6 +95,7 @@ std::vector<Quad> KeepBestOutlines(std::vector<Quad> good, const EdgeProbe& prob
     if (drop && !replace) continue;
     bool relaxed = false;
     if (!IsLCornered(probe, q, &relaxed)) continue;  // as if it had never been found
+    if (SpansTwoObjects(probe, q)) continue;
     // A variant that passed the L-corner tests only by a relaxed rule does not displace one that
     // passed them without (a radiator's outline closed by the lower edge of its shadow, whose
     // sides do not reach it, against the one closed by the radiator's own bottom edge).

@@ -333,6 +333,59 @@ bool HasTJunction(const EdgeProbe& probe, const Corners& c, const std::array<Sid
   return false;
 }
 
+bool SpansTwoObjects(const EdgeProbe& probe, const Quad& q) {
+  const RectDetectorOptions& o = probe.o;
+  // A patterned rectangle (a checkerboard) has its sides' polarity flip with its squares.
+  if (!(o.union_gap_frac > 0.0) || q.texture) return false;
+  const Corners& c = q.c_grouping;
+  // Sides as homogeneous lines (n.x, n.y, -c): side i joins c[i-1] and c[i].
+  std::array<Vec3, 4> line;
+  for (int i = 0; i < 4; ++i) {
+    const Line l = LineOf(MakeSeg(c[(i + 3) % 4], c[i]));
+    line[i] = Vec3(l.n.x(), l.n.y(), -l.c);
+  }
+  // Whether side `side`'s edge (its polarity, at least half its median gradient, on its line) is
+  // found at p; a point outside the searchable image counts as found (no evidence of a gap).
+  auto on_edge = [&](int side, const Vec2& p) {
+    const SideEdge& edge = q.edges[side];
+    const Vec2 u = (c[side] - c[(side + 3) % 4]).normalized(), n(-u.y(), u.x());
+    Vec2 e;
+    double gradient;
+    int sg;
+    if (!probe.Peak(p, n, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign))
+      return !probe.Searchable(p);
+    return std::abs(n.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+  };
+  for (int i = 0; i < 2; ++i) {
+    const int j = i + 2;  // the opposite side
+    if (q.edges[i].weak || q.edges[j].weak || q.edges[i].curved || q.edges[j].curved) continue;
+    // The point of side j that faces p on side i: on the line through p and the vanishing point
+    // of the two other sides (the same position across the object's plane).
+    const Vec3 vanishing = line[(i + 1) % 4].cross(line[(i + 3) % 4]);
+    const Vec2 P = c[(i + 3) % 4], Q = c[i];
+    const double L = std::max((Q - P).norm(), (c[(j + 3) % 4] - c[j]).norm());
+    const int k_samples = std::clamp(static_cast<int>(L / 2.0), 12, 64);
+    int run = 0, longest = 0;
+    bool edge_before = false;
+    for (int k = 0; k < k_samples; ++k) {
+      const Vec2 p = P + (0.05 + 0.9 * (k + 0.5) / k_samples) * (Q - P);
+      const Vec3 facing = Vec3(p.x(), p.y(), 1.0).cross(vanishing).cross(line[j]);
+      if (std::abs(facing.z()) < 1e-12) return false;
+      const bool gap = !on_edge(i, p) && !on_edge(j, facing.head<2>() / facing.z());
+      if (!gap) {
+        // A gap counts between stretches with an edge (one at a corner is the reach test's).
+        if (edge_before) longest = std::max(longest, run);
+        edge_before = true;
+        run = 0;
+      } else {
+        ++run;
+      }
+    }
+    if (longest >= std::max(2.0, o.union_gap_frac * k_samples)) return true;
+  }
+  return false;
+}
+
 bool IsLCornered(const EdgeProbe& probe, const Quad& q, bool* relaxed) {
   if (relaxed) *relaxed = false;
   return !(probe.o.max_side_continuation < 1.0 || probe.o.min_corner_reach > 0.0) ||

@@ -273,6 +273,12 @@ struct RectDetectorOptions {
   // texture that line up with the side are not. Smaller is stricter (and costs more probes); 0
   // switches the in-between check off.
   double continuation_step_px = 3.0;
+  // Union test: when two opposite sides of a quad both lack their edge over the same stretch
+  // across the object, of at least this fraction of their length, between stretches where both
+  // have it, the quad joins two objects side by side by their collinear sides (two posters with
+  // wall between them: the wall has no edge there); it is not reported. A window's frame runs on
+  // across its mullion, a door's across its panels. 0 switches the test off.
+  double union_gap_frac = 0.05;
   // Corner reach test: each side's edge must reach its corners. Points on the side's line from
   // `reach_start_px` to max(`reach_min_px`, `reach_frac` x the side's length) from each corner are
   // searched like the continuation; fewer than `min_corner_reach` of them on the edge rejects the
