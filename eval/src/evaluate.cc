@@ -1,5 +1,6 @@
 #include "fsp/eval/evaluate.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -34,6 +35,28 @@ std::string ObjectIdLine(const ObjectMetrics& o) {
   if (o.corner_order_errors > 0)
     line += " (" + std::to_string(o.corner_order_errors) + " with corners out of order)";
   return line.empty() ? line : "  map ids matched by geometry:" + line + "\n";
+}
+
+// "  worst tracked (median of a frame's worst corner): object 10 29.7 px (ids 1018), ..." for the
+// three objects tracked worst, of those matched in at least 10 frames, when above the success
+// bound (empty when none).
+std::string WorstTrackedLine(const FrontendMetrics& f) {
+  std::vector<const ObjectTracking*> worst;
+  for (const ObjectTracking& o : f.per_object)
+    if (o.matched >= 10) worst.push_back(&o);
+  std::sort(worst.begin(), worst.end(), [](const ObjectTracking* a, const ObjectTracking* b) {
+    return a->worst_corner_median_px > b->worst_corner_median_px;
+  });
+  std::string line;
+  for (size_t i = 0; i < std::min<size_t>(3, worst.size()); ++i) {
+    const ObjectTracking& o = *worst[i];
+    if (o.worst_corner_median_px <= 2.0) break;
+    std::string ids;
+    for (int id : o.est_ids) ids += (ids.empty() ? "" : " ") + std::to_string(id);
+    line += (line.empty() ? " " : ", ") + std::string("object ") + std::to_string(o.gt_id) + " " +
+            Format("%.1f", o.worst_corner_median_px) + " px (ids " + ids + ")";
+  }
+  return line.empty() ? line : "  worst tracked (median of a frame's worst corner):" + line + "\n";
 }
 
 }  // namespace
@@ -293,6 +316,17 @@ nlohmann::ordered_json ToJson(const Metrics& m) {
     nlohmann::ordered_json id_map = nlohmann::ordered_json::object();
     for (const auto& [est_id, gt_id] : f.id_map) id_map[std::to_string(est_id)] = gt_id;
     b["id_map"] = id_map;
+    nlohmann::ordered_json per_object = nlohmann::ordered_json::array();
+    for (const ObjectTracking& o : f.per_object) {
+      per_object.push_back({{"gt_id", o.gt_id},
+                            {"est_ids", o.est_ids},
+                            {"matched", o.matched},
+                            {"worst_corner_px_median", o.worst_corner_median_px},
+                            {"worst_corner_px_p90", o.worst_corner_p90_px},
+                            {"success_frames", o.success_frames},
+                            {"success_total", o.success_total}});
+    }
+    b["per_object"] = per_object;
     j["frontend"] = b;
   }
   if (m.runtime) {
@@ -361,6 +395,7 @@ std::string FormatSummary(const Metrics& m) {
        << ", boxes out of view " << f.boxes_out_of_view << ", unmatched rows "
        << f.unmatched_est_rows << ", re-identified " << f.reidentified << "/" << f.returns
        << " returns, " << f.id_map.size() << " track ids over " << f.frames << " frames\n";
+    os << WorstTrackedLine(f);
   }
   if (m.runtime) {
     os << "runtime:";

@@ -201,22 +201,48 @@ int CountIdSwitches(const std::vector<CornerRow>& est, const GtTrack& track) {
   return switches;
 }
 
-// Success over the fully visible rows of one object from its first match on: matched with every
-// corner within SUCCESS_PX.
-void CountSuccess(const std::vector<CornerRow>& gt, const std::vector<CornerRow>& est,
-                  const GtTrack& track, double success_px, FrontendMetrics* m) {
-  if (track.matches.empty()) return;
-  const size_t first = track.matches.front()->frame;
+double WorstCornerError(const std::vector<CornerRow>& gt, const std::vector<CornerRow>& est,
+                        const Match& mt) {
+  const std::array<double, 4> err = CornerErrors(est[mt.est], gt[mt.gt]);
+  return *std::max_element(err.begin(), err.end());
+}
+
+// numpy.percentile (linear interpolation) of non-empty VALUES at Q in [0, 1].
+double Percentile(std::vector<double> values, double q) {
+  std::sort(values.begin(), values.end());
+  const double at = q * static_cast<double>(values.size() - 1);
+  const size_t lo = static_cast<size_t>(std::floor(at));
+  const size_t hi = std::min(lo + 1, values.size() - 1);
+  return values[lo] + (at - static_cast<double>(lo)) * (values[hi] - values[lo]);
+}
+
+// One object's tracking (see ObjectTracking). Success over its fully visible rows from its first
+// match on: matched with every corner within SUCCESS_PX.
+ObjectTracking TrackObject(const std::vector<CornerRow>& gt, const std::vector<CornerRow>& est,
+                           int gt_id, const GtTrack& track, double success_px) {
+  ObjectTracking o;
+  o.gt_id = gt_id;
+  o.matched = track.matches.size();
+  std::vector<double> worst;
+  std::set<int> ids;
   std::map<size_t, const Match*> by_frame;
-  for (const Match* mt : track.matches) by_frame[mt->frame] = mt;
+  for (const Match* mt : track.matches) {
+    worst.push_back(WorstCornerError(gt, est, *mt));
+    ids.insert(est[mt->est].object_id);
+    by_frame[mt->frame] = mt;
+  }
+  o.est_ids.assign(ids.begin(), ids.end());
+  o.worst_corner_median_px = Median(worst);
+  o.worst_corner_p90_px = Percentile(worst, 0.9);
+  const size_t first = track.matches.front()->frame;
   for (size_t k : track.fully_visible_frames) {
     if (k < first) continue;
-    ++m->success_total;
+    ++o.success_total;
     const auto it = by_frame.find(k);
-    if (it == by_frame.end()) continue;
-    const std::array<double, 4> err = CornerErrors(est[it->second->est], gt[it->second->gt]);
-    if (*std::max_element(err.begin(), err.end()) <= success_px) ++m->success_frames;
+    if (it != by_frame.end() && WorstCornerError(gt, est, *it->second) <= success_px)
+      ++o.success_frames;
   }
+  return o;
 }
 
 // Returns after absences of ≥ GAP frames (see the header) and how many kept the estimated id.
@@ -307,8 +333,11 @@ FrontendMetrics EvaluateFrontend(const std::vector<CornerRow>& gt,
   m.boxes_out_of_view = CountOutOfView(gt, est, frames, m.id_map);
   for (const auto& [gt_id, track] : GtTracks(gt, frames, matches)) {
     m.id_switches += CountIdSwitches(est, track);
-    CountSuccess(gt, est, track, options.success_px, &m);
     CountReturns(est, track, options.return_gap_frames, &m);
+    if (track.matches.empty()) continue;
+    m.per_object.push_back(TrackObject(gt, est, gt_id, track, options.success_px));
+    m.success_frames += m.per_object.back().success_frames;
+    m.success_total += m.per_object.back().success_total;
   }
   m.id_switches_per_1000 = Ratio(static_cast<size_t>(m.id_switches), m.matched, 1000.0);
   m.success_rate = Ratio(m.success_frames, m.success_total);

@@ -188,10 +188,12 @@ TEST(CmdEval, RenumberedTrackerIdsGiveTheSameNumbers) {
   EXPECT_EQ(b.at("objects").at("matches")[0].at("est_id"), 17);
   EXPECT_EQ(b.at("objects").at("per_object")[0].at("est_id"), 17);
   EXPECT_EQ(b.at("frontend").at("id_map"), nlohmann::json({{"40", 1}, {"50", 1}}));
+  EXPECT_EQ(b.at("frontend").at("per_object")[0].at("est_ids"), nlohmann::json({40, 50}));
   for (nlohmann::json* m : {&a, &b}) {
     m->at("objects").erase("matches");
     m->at("objects").erase("per_object");
     m->at("frontend").erase("id_map");
+    for (nlohmann::json& o : m->at("frontend").at("per_object")) o.erase("est_ids");
   }
   EXPECT_EQ(a.at("objects"), b.at("objects"));
   EXPECT_EQ(a.at("frontend"), b.at("frontend"));

@@ -73,6 +73,24 @@ TEST(TrackingMetrics, IdSwitchSuccessAndBoxesOutOfView) {
   FrontendOptions loose;
   loose.success_px = 3.0;
   EXPECT_EQ(EvaluateFrontend(gt, est, loose, FrameTimes(10)).success_frames, 14u);
+  // Per object: object 1 matched in frames 1..5 by ids 7 and 8, its worst corner 3 px off in
+  // frame 5 (median 0, p90 1.8 px by numpy's interpolation), 4 of 5 frames a success; object 2 by
+  // id 9 in 9 of its 10 frames.
+  ASSERT_EQ(m.per_object.size(), 2u);
+  const ObjectTracking& o1 = m.per_object[0];
+  EXPECT_EQ(o1.gt_id, 1);
+  EXPECT_EQ(o1.matched, 5u);
+  EXPECT_EQ(o1.est_ids, (std::vector<int>{7, 8}));
+  EXPECT_DOUBLE_EQ(o1.worst_corner_median_px, 0.0);
+  EXPECT_NEAR(o1.worst_corner_p90_px, 1.8, 1e-12);
+  EXPECT_EQ(o1.success_frames, 4u);
+  EXPECT_EQ(o1.success_total, 5u);
+  const ObjectTracking& o2 = m.per_object[1];
+  EXPECT_EQ(o2.gt_id, 2);
+  EXPECT_EQ(o2.est_ids, (std::vector<int>{9}));
+  EXPECT_EQ(o2.success_frames, 9u);
+  EXPECT_EQ(o2.success_total, 10u);
+  EXPECT_EQ(o1.success_frames + o2.success_frames, m.success_frames);
 }
 
 // Forty frames. Object 1 fully visible in 0..4, gone in 5..19, fully visible in 20..24, partly

@@ -61,6 +61,19 @@ struct FrontendOptions {
   bool Check(std::string* why) const;
 };
 
+// How one ground-truth object was tracked: its matches, the worst of a match's four corner errors
+// [px] (median and 90th percentile, numpy's linear interpolation), its success (as above) and the
+// estimated ids that matched it. Which objects a front end gets wrong, and by how much.
+struct ObjectTracking {
+  int gt_id = 0;
+  size_t matched = 0;
+  double worst_corner_median_px = 0.0;
+  double worst_corner_p90_px = 0.0;
+  size_t success_frames = 0;
+  size_t success_total = 0;
+  std::vector<int> est_ids;  // ascending
+};
+
 struct FrontendMetrics {
   size_t gt_rows = 0;
   size_t gt_fully_visible = 0;
@@ -86,7 +99,8 @@ struct FrontendMetrics {
   size_t unmatched_est_rows = 0;
   size_t returns = 0;
   size_t reidentified = 0;
-  std::optional<double> reid_rate;  // absent without returns
+  std::optional<double> reid_rate;         // absent without returns
+  std::vector<ObjectTracking> per_object;  // ground-truth objects with a match, ascending id
 };
 
 // FRAME_TIMES: the sequence's frame times [ns], any order (may be empty, see above).
