@@ -39,7 +39,7 @@ std::string ObjectIdLine(const ObjectMetrics& o) {
 
 // "  worst tracked (median of a frame's worst corner): object 10 29.7 px (ids 1018), ..." for the
 // three objects tracked worst, of those matched in at least 10 frames, when above the success
-// bound (empty when none).
+// bound (`--success-px`; empty when none).
 std::string WorstTrackedLine(const FrontendMetrics& f) {
   std::vector<const ObjectTracking*> worst;
   for (const ObjectTracking& o : f.per_object)
@@ -50,7 +50,7 @@ std::string WorstTrackedLine(const FrontendMetrics& f) {
   std::string line;
   for (size_t i = 0; i < std::min<size_t>(3, worst.size()); ++i) {
     const ObjectTracking& o = *worst[i];
-    if (o.worst_corner_median_px <= 2.0) break;
+    if (o.worst_corner_median_px <= f.success_px) break;
     std::string ids;
     for (int id : o.est_ids) ids += (ids.empty() ? "" : " ") + std::to_string(id);
     line += (line.empty() ? " " : ", ") + std::string("object ") + std::to_string(o.gt_id) + " " +

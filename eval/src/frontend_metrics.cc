@@ -294,6 +294,7 @@ FrontendMetrics EvaluateFrontend(const std::vector<CornerRow>& gt,
   std::string why;
   if (!options.Check(&why)) throw InputError("front-end options: " + why);
   FrontendMetrics m;
+  m.success_px = options.success_px;
   m.gt_rows = gt.size();
   m.est_rows = est.size();
   for (const CornerRow& g : gt) m.gt_fully_visible += g.FullyVisible() ? 1 : 0;

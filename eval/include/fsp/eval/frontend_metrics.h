@@ -101,6 +101,7 @@ struct FrontendMetrics {
   size_t reidentified = 0;
   std::optional<double> reid_rate;         // absent without returns
   std::vector<ObjectTracking> per_object;  // ground-truth objects with a match, ascending id
+  double success_px = 0.0;                 // the options' bound the success counts used
 };
 
 // FRAME_TIMES: the sequence's frame times [ns], any order (may be empty, see above).
