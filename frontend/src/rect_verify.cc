@@ -10,6 +10,22 @@
 namespace fsp::frontend::rect_internal {
 namespace {
 
+// What a side's edge looks like at p (searched along the side's normal n): found on the side's
+// line (polarity `sign`, at least half the side's median gradient, within ransac_inlier_px + 0.5
+// px of p along n), found off it, not found, or p too close to the image border to tell.
+enum class EdgeAt { kOnLine, kOffLine, kNone, kUnsearchable };
+
+EdgeAt FindEdgeAt(const EdgeProbe& probe, const Vec2& p, const Vec2& n, const SideEdge& edge,
+                  int sign) {
+  Vec2 e;
+  double gradient;
+  int sg;
+  if (!probe.Peak(p, n, 0.5 * edge.gradient, &e, &gradient, &sg, sign))
+    return probe.Searchable(p) ? EdgeAt::kNone : EdgeAt::kUnsearchable;
+  return std::abs(n.dot(e - p)) <= probe.o.ransac_inlier_px + 0.5 ? EdgeAt::kOnLine
+                                                                  : EdgeAt::kOffLine;
+}
+
 // T-junction test (RectDetectorOptions::max_side_continuation): does the edge of a side run on past
 // the corner `corner`? `u` is the side's direction pointing out of the quad at that corner, `edge`
 // its polarity and strength along the side (polarity relative to the left normal of u_side, where
@@ -31,12 +47,7 @@ double SideContinuation(const EdgeProbe& probe, const Vec2& corner, const Vec2& 
   // continuous, scattered hits (text, texture beyond the corner) are not.
   // The edge point at distance t beyond the corner along u, on the extended line.
   auto on_line = [&](double t) {
-    const Vec2 p = corner + t * u;
-    Vec2 e;
-    double gradient;
-    int sg;
-    return probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign) &&
-           std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+    return FindEdgeAt(probe, corner + t * u, n_side, edge, edge.sign) == EdgeAt::kOnLine;
   };
   // Two consecutive hits extend a run only when the edge is also found between them at least every
   // `continuation_step_px`: an edge that runs on is continuous, while the ends of text strokes or
@@ -48,20 +59,11 @@ double SideContinuation(const EdgeProbe& probe, const Vec2& corner, const Vec2& 
   int valid = 0, run = 0, longest = 0;
   for (int k = 0; k < kSamples; ++k) {
     const double t = o.continuation_start_px + span * (k + 0.5) / kSamples;
-    const Vec2 p = corner + t * u;
-    Vec2 e;
-    double gradient;
-    int sg;
-    if (!probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign)) {
-      // Outside the image is not evidence either way; no edge inside is evidence against.
-      if (probe.Searchable(p)) {
-        ++valid;
-        run = 0;
-      }
-      continue;
-    }
+    // Outside the image is not evidence either way; no edge inside is evidence against.
+    const EdgeAt at = FindEdgeAt(probe, corner + t * u, n_side, edge, edge.sign);
+    if (at == EdgeAt::kUnsearchable) continue;
     ++valid;
-    if (std::abs(n_side.dot(e - p)) > o.ransac_inlier_px + 0.5) {
+    if (at != EdgeAt::kOnLine) {
       run = 0;
       continue;
     }
@@ -92,15 +94,9 @@ double CornerReach(const EdgeProbe& probe, const Vec2& corner, const Vec2& u, bo
     // below).
     bool searchable = false, on_edge = false;
     for (const int sign : {edge.sign, -edge.sign}) {
-      Vec2 e;
-      double gradient;
-      int sg;
-      if (probe.Peak(p, n_side, 0.5 * edge.gradient, &e, &gradient, &sg, sign)) {
-        searchable = true;
-        on_edge = std::abs(n_side.dot(e - p)) <= o.ransac_inlier_px + 0.5;
-      } else {
-        searchable = searchable || probe.Searchable(p);
-      }
+      const EdgeAt at = FindEdgeAt(probe, p, n_side, edge, sign);
+      searchable = searchable || at != EdgeAt::kUnsearchable;
+      on_edge = at == EdgeAt::kOnLine;
       if (on_edge || !o.reach_either_polarity) break;
     }
     valid += searchable;
@@ -344,17 +340,16 @@ bool SpansTwoObjects(const EdgeProbe& probe, const Quad& q) {
     const Line l = LineOf(MakeSeg(c[(i + 3) % 4], c[i]));
     line[i] = Vec3(l.n.x(), l.n.y(), -l.c);
   }
-  // Whether side `side`'s edge (its polarity, at least half its median gradient, on its line) is
-  // found at p; a point outside the searchable image counts as found (no evidence of a gap).
+  // Whether side `side`'s edge is found on its line at p; a point outside the searchable image
+  // counts as found (no evidence of a gap).
+  std::array<Vec2, 4> normal;  // left normal of side i's direction c[i-1] -> c[i]
+  for (int i = 0; i < 4; ++i) {
+    const Vec2 u = (c[i] - c[(i + 3) % 4]).normalized();
+    normal[i] = Vec2(-u.y(), u.x());
+  }
   auto on_edge = [&](int side, const Vec2& p) {
-    const SideEdge& edge = q.edges[side];
-    const Vec2 u = (c[side] - c[(side + 3) % 4]).normalized(), n(-u.y(), u.x());
-    Vec2 e;
-    double gradient;
-    int sg;
-    if (!probe.Peak(p, n, 0.5 * edge.gradient, &e, &gradient, &sg, edge.sign))
-      return !probe.Searchable(p);
-    return std::abs(n.dot(e - p)) <= o.ransac_inlier_px + 0.5;
+    const EdgeAt at = FindEdgeAt(probe, p, normal[side], q.edges[side], q.edges[side].sign);
+    return at == EdgeAt::kOnLine || at == EdgeAt::kUnsearchable;
   };
   for (int i = 0; i < 2; ++i) {
     const int j = i + 2;  // the opposite side
