@@ -1,7 +1,8 @@
-// The side corrections that run after the sub-pixel refinement (edge_refine.cc): a framed object's
-// side found on its frame's inner edge moved out onto the outline (frame_band_max_frac), and a side
-// beside a thin band moved off the blur's push (band_max_px). The detector applies them to its
-// detections, RefineCornersOnEdges to every refined quad.
+// The side corrections that run after the sub-pixel refinement (edge_refine.cc, CorrectSides): a
+// framed object's side found on its frame's inner edge moved out onto the outline, a bright
+// object's side found on its shadow's outer edge moved in onto the object (frame_band_max_frac),
+// and a side beside a thin band moved off the blur's push (band_max_px). The detector applies them
+// to its detections, RefineCornersOnEdges to every refined quad.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -43,38 +44,118 @@ double PositionT(int k) {
   return 0.15 + 0.7 * (k + 0.5) / kPositions;
 }
 
-}  // namespace
-
-bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* corners) {
-  const RectDetectorOptions& o = probe.o;
-  if (!(o.frame_band_max_frac > 0.0)) return false;
+// Side j of quad C moved along its inward normal by SHIFT_IN [px] (negative: outward), onto an edge
+// found within 1.5 px of there (else exactly there), and the corners re-intersected; false (C
+// unchanged) when the result is not a convex quad.
+bool SnapSide(const EdgeProbe& probe, int j, double shift_in, Corners* corners) {
   Corners& c = *corners;
   const Vec2 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
-  std::array<double, 4> contrast{};
-  std::array<int, 4> pol{};
-  for (int i = 0; i < 4; ++i) {
-    const Vec2 P = c[(i + 3) % 4], Q = c[i], n = InwardNormal(P, Q, centre);
-    std::vector<double> diffs;
-    for (int k = 0; k < kPositions; ++k) {
-      const Vec2 b = P + PositionT(k) * (Q - P);
-      double vin, vout;
-      if (GreyAt(probe, b + 1.5 * n, &vin) && GreyAt(probe, b - 1.5 * n, &vout))
-        diffs.push_back(vin - vout);
+  const Vec2 P = c[(j + 3) % 4], Q = c[j], n = InwardNormal(P, Q, centre);
+  Line line;
+  line.n = n;
+  line.c = n.dot(P) + shift_in;
+  std::vector<Vec2> pts;
+  std::vector<double> wts;
+  for (int k = 0; k < kPositions; ++k) {
+    const Vec2 b = P + PositionT(k) * (Q - P) + shift_in * n;
+    std::array<double, 9> v{};  // -2 .. +2 px along n, 0.5 px apart
+    bool ok = true;
+    for (int s = 0; s < 9 && ok; ++s) ok = GreyAt(probe, b + (0.5 * (s - 4)) * n, &v[s]);
+    if (!ok) continue;
+    int best = -1;
+    double best_d = 0.0;
+    for (int s = 1; s < 8; ++s) {
+      const double d = std::abs(v[s + 1] - v[s - 1]);
+      if (d > best_d) {
+        best_d = d;
+        best = s;
+      }
     }
-    if (static_cast<int>(diffs.size()) < kPositions / 2) return false;
-    contrast[i] = Median(diffs);
-    pol[i] = contrast[i] > 0.0 ? 1 : -1;
+    if (best <= 1 || best >= 7 || best_d < 2.0) continue;
+    pts.push_back(b + (0.5 * (best - 4)) * n);
+    wts.push_back(best_d);
   }
-  // The odd side: its inside brighter (darker) where the three others' is darker (brighter).
-  int j = -1;
+  if (static_cast<int>(pts.size()) >= 2 * kPositions / 3) {
+    std::vector<int> idx(pts.size());
+    for (size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<int>(i);
+    Line found;
+    if (FitLineTls(pts, wts, idx, &found)) {
+      if (found.n.dot(n) < 0.0) {
+        found.n = -found.n;
+        found.c = -found.c;
+      }
+      const double shift = std::abs(found.c - line.c);
+      if (found.n.dot(n) > std::cos(3.0 * M_PI / 180.0) && shift <= 1.5) line = found;
+    }
+  }
+  // New corners: the moved line with the two neighbouring sides' lines.
+  const int a = (j + 3) % 4, b = j;
+  const Line before = LineOf(MakeSeg(c[(j + 2) % 4], c[a]));
+  const Line after = LineOf(MakeSeg(c[b], c[(j + 1) % 4]));
+  Vec2 ca, cb;
+  if (!Intersect(before, line, &ca) || !Intersect(line, after, &cb)) return false;
+  Corners moved = c;
+  moved[a] = ca;
+  moved[b] = cb;
+  if (!IsConvex(moved)) return false;
+  c = moved;
+  return true;
+}
+
+// A bright object's side j found on the outer edge of its shadow on the wall (a switch plate's, a
+// sheet's: a shadow falls on one side, a frame runs round; MoveOntoFrameOutline found no band on
+// the opposite side): its inside darker than its outside where the three other sides' is brighter.
+// Inward from it within MAX_D, each position's strongest rise to the object's grey (at least half
+// the other sides' median contrast); consistent over 2/3 of the positions, the side moves onto it.
+bool MoveOffShadow(const EdgeProbe& probe, int j, const std::array<double, 4>& contrast,
+                   double max_d, Corners* corners) {
+  const Corners& c = *corners;
+  if (!(contrast[j] < 0.0)) return false;
+  std::vector<double> others;
   for (int i = 0; i < 4; ++i)
-    if (pol[i] != pol[(i + 1) % 4] && pol[i] != pol[(i + 3) % 4]) j = i;
-  if (j < 0) return false;
+    if (i != j) others.push_back(contrast[i]);
+  const double object_contrast = Median(others);
+  if (!(object_contrast > 0.0)) return false;
+  const Vec2 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+  const Vec2 P = c[(j + 3) % 4], Q = c[j], n = InwardNormal(P, Q, centre);
+  const double step = 0.5;
+  const int K = static_cast<int>(max_d / step);
+  if (K < 4) return false;
+  std::vector<double> widths, prof(static_cast<size_t>(K + 2));
+  for (int k = 0; k < kPositions; ++k) {
+    const Vec2 b = P + PositionT(k) * (Q - P);
+    bool ok = true;
+    for (int s = 0; s <= K + 1 && ok; ++s) ok = GreyAt(probe, b + (s * step) * n, &prof[s]);
+    if (!ok) continue;
+    int best = -1;
+    double best_d = 0.0;
+    for (int s = 2; s < K; ++s) {
+      const double d = prof[s + 1] - prof[s - 1];  // the rise into the object [grey levels / px]
+      if (d > best_d) {
+        best_d = d;
+        best = s;
+      }
+    }
+    if (best < 0 || best_d < 0.5 * object_contrast) continue;
+    widths.push_back(best * step);
+  }
+  if (static_cast<int>(widths.size()) < 2 * kPositions / 3) return false;
+  const double w = Median(widths);
+  int consistent = 0;
+  for (double x : widths) consistent += std::abs(x - w) <= 1.0;
+  if (consistent < 2 * kPositions / 3 || w < 1.0) return false;
+  return SnapSide(probe, j, w, corners);
+}
+
+// The frame outline of MoveOntoFrameOutline for odd side j (its steps after finding j).
+bool FrameOutline(const EdgeProbe& probe, int j, const std::array<double, 4>& contrast,
+                  const std::array<int, 4>& pol, double max_d, Corners* corners) {
+  Corners& c = *corners;
+  const Vec2 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
   const int opp = (j + 2) % 4;
   // The band on the opposite side: from its outline inward to a step of side j's polarity.
   const Vec2 Po = c[(opp + 3) % 4], Qo = c[opp], no = InwardNormal(Po, Qo, centre);
   const double step = 0.5;
-  const double max_d = o.frame_band_max_frac * ShortestSide(c);
   const int K = static_cast<int>(max_d / step);
   if (K < 4) return false;
   std::vector<double> widths, band, panel, prof(static_cast<size_t>(K + 2));
@@ -126,57 +207,45 @@ bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* corners) {
   if (static_cast<int>(outside.size()) < kPositions / 2 || Median(outside) > 0.4 * frame_contrast ||
       Median(inside) < 0.5 * frame_contrast)
     return false;
-  // The outline: side j's line moved out by w_j, onto an edge found within 1.5 px of it.
-  Line line;
-  line.n = n;
-  line.c = n.dot(P) - w_j;
-  std::vector<Vec2> pts;
-  std::vector<double> wts;
-  for (int k = 0; k < kPositions; ++k) {
-    const Vec2 b = P + PositionT(k) * (Q - P) - w_j * n;
-    std::array<double, 9> v{};  // -2 .. +2 px along n, 0.5 px apart
-    bool ok = true;
-    for (int s = 0; s < 9 && ok; ++s) ok = GreyAt(probe, b + (0.5 * (s - 4)) * n, &v[s]);
-    if (!ok) continue;
-    int best = -1;
-    double best_d = 0.0;
-    for (int s = 1; s < 8; ++s) {
-      const double d = std::abs(v[s + 1] - v[s - 1]);
-      if (d > best_d) {
-        best_d = d;
-        best = s;
-      }
+  return SnapSide(probe, j, -w_j, &c);
+}
+
+// The frame outline and the shadow (frame_band_max_frac); *SHADOW_SIDE: the side moved off a
+// shadow, else -1.
+bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* corners, int* shadow_side) {
+  *shadow_side = -1;
+  const RectDetectorOptions& o = probe.o;
+  if (!(o.frame_band_max_frac > 0.0)) return false;
+  Corners& c = *corners;
+  const Vec2 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+  std::array<double, 4> contrast{};
+  std::array<int, 4> pol{};
+  for (int i = 0; i < 4; ++i) {
+    const Vec2 P = c[(i + 3) % 4], Q = c[i], n = InwardNormal(P, Q, centre);
+    std::vector<double> diffs;
+    for (int k = 0; k < kPositions; ++k) {
+      const Vec2 b = P + PositionT(k) * (Q - P);
+      double vin, vout;
+      if (GreyAt(probe, b + 1.5 * n, &vin) && GreyAt(probe, b - 1.5 * n, &vout))
+        diffs.push_back(vin - vout);
     }
-    if (best <= 1 || best >= 7 || best_d < 2.0) continue;
-    pts.push_back(b + (0.5 * (best - 4)) * n);
-    wts.push_back(best_d);
+    if (static_cast<int>(diffs.size()) < kPositions / 2) return false;
+    contrast[i] = Median(diffs);
+    pol[i] = contrast[i] > 0.0 ? 1 : -1;
   }
-  if (static_cast<int>(pts.size()) >= 2 * kPositions / 3) {
-    std::vector<int> idx(pts.size());
-    for (size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<int>(i);
-    Line found;
-    if (FitLineTls(pts, wts, idx, &found)) {
-      if (found.n.dot(n) < 0.0) {
-        found.n = -found.n;
-        found.c = -found.c;
-      }
-      const double shift = std::abs(found.c - line.c);
-      if (found.n.dot(n) > std::cos(3.0 * M_PI / 180.0) && shift <= 1.5) line = found;
-    }
-  }
-  // New corners: the moved line with the two neighbouring sides' lines.
-  const int a = (j + 3) % 4, b = j;
-  const Line before = LineOf(MakeSeg(c[(j + 2) % 4], c[a]));
-  const Line after = LineOf(MakeSeg(c[b], c[(j + 1) % 4]));
-  Vec2 ca, cb;
-  if (!Intersect(before, line, &ca) || !Intersect(line, after, &cb)) return false;
-  Corners moved = c;
-  moved[a] = ca;
-  moved[b] = cb;
-  if (!IsConvex(moved)) return false;
-  c = moved;
+  // The odd side: its inside brighter (darker) where the three others' is darker (brighter).
+  int j = -1;
+  for (int i = 0; i < 4; ++i)
+    if (pol[i] != pol[(i + 1) % 4] && pol[i] != pol[(i + 3) % 4]) j = i;
+  if (j < 0) return false;
+  const double max_d = o.frame_band_max_frac * ShortestSide(c);
+  if (FrameOutline(probe, j, contrast, pol, max_d, &c)) return true;
+  if (!MoveOffShadow(probe, j, contrast, max_d, &c)) return false;
+  *shadow_side = j;
   return true;
 }
+
+}  // namespace
 
 // Thin bands (RectDetectorOptions::band_max_px). Across each side, at kPositions points of its
 // middle 70 %, the profile of the smoothed image from -R to +R px along the side's normal; their
@@ -386,9 +455,9 @@ bool BandOffset(const EdgeProbe& probe, const Vec2& P, const Vec2& Q, const Vec2
   return true;
 }
 
-}  // namespace
-
-void CorrectBandOffsets(const EdgeProbe& probe, Corners* corners) {
+// The thin bands (band_max_px), side SKIP left as it is (a side moved off its shadow: the shadow
+// is such a band).
+void CorrectBandOffsets(const EdgeProbe& probe, int skip, Corners* corners) {
   if (!(probe.o.band_max_px > 0.0)) return;
   const Corners& c = *corners;
   std::array<Line, 4> lines;
@@ -398,7 +467,8 @@ void CorrectBandOffsets(const EdgeProbe& probe, Corners* corners) {
     const Vec2 P = c[(i + 3) % 4], Q = c[i];
     lines[i] = LineOf(MakeSeg(P, Q));
     double offset = 0.0;
-    if (BandOffset(probe, P, Q, lines[i].n, lines[i].n.dot(centre - P) > 0.0, &offset)) {
+    if (i != skip &&
+        BandOffset(probe, P, Q, lines[i].n, lines[i].n.dot(centre - P) > 0.0, &offset)) {
       lines[i].c += offset;
       moved = true;
     }
@@ -408,6 +478,14 @@ void CorrectBandOffsets(const EdgeProbe& probe, Corners* corners) {
   for (int i = 0; i < 4; ++i)
     if (!Intersect(lines[i], lines[(i + 1) % 4], &out[i])) return;
   if (IsConvex(out)) *corners = out;
+}
+
+}  // namespace
+
+void CorrectSides(const EdgeProbe& probe, Corners* c) {
+  int shadow_side = -1;
+  MoveOntoFrameOutline(probe, c, &shadow_side);
+  CorrectBandOffsets(probe, shadow_side, c);
 }
 
 }  // namespace fsp::frontend::rect_internal

@@ -382,8 +382,7 @@ EdgeRefinement RefineCornersOnEdges(const cv::Mat& smooth, const PinholeRadtan* 
   std::array<SideEdge, 4> edges;
   if (!RefineQuad(probe, {}, min_gradient, &rng, &q, &edges, want_sign)) return out;
   out.ok = true;
-  rect_internal::MoveOntoFrameOutline(probe, &q.c);
-  rect_internal::CorrectBandOffsets(probe, &q.c);
+  rect_internal::CorrectSides(probe, &q.c);
   out.corners_undistorted = q.c;
   out.support = q.score;
   for (int i = 0; i < 4; ++i) {

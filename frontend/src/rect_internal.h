@@ -221,14 +221,13 @@ struct EdgeProbe {
   }
 };
 
-// RectDetectorOptions::frame_band_max_frac: moves the side of quad C (undistorted px, cyclic
-// order) that lies on a frame's inner edge out onto the frame's outline. Returns whether it did.
-bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* c);
-
-// RectDetectorOptions::band_max_px: moves each side of quad C (undistorted px, cyclic order) that
-// has an edge of the opposite polarity close by from its gradient peak to the edge of a two-edge
-// model fitted across it.
-void CorrectBandOffsets(const EdgeProbe& probe, Corners* c);
+// The side corrections after the sub-pixel refinement of quad C (undistorted px, cyclic order),
+// edge_corrections.cc: RectDetectorOptions::frame_band_max_frac moves the side that lies on a
+// frame's inner edge out onto the frame's outline, or a bright object's side found on its shadow's
+// outer edge in onto the object; then band_max_px moves each (other) side that has an edge of the
+// opposite polarity close by from its gradient peak to the edge of a two-edge model fitted across
+// it.
+void CorrectSides(const EdgeProbe& probe, Corners* c);
 
 // ---- 1. edges (rect_edges.cc) ----
 

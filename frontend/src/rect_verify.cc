@@ -570,8 +570,7 @@ std::vector<Detection> MakeDetections(const std::vector<Quad>& quads, const Edge
   for (const Quad& q : quads) {
     Detection det;
     det.corners_undistorted = q.c;
-    MoveOntoFrameOutline(probe, &det.corners_undistorted);
-    CorrectBandOffsets(probe, &det.corners_undistorted);
+    CorrectSides(probe, &det.corners_undistorted);
     for (int i = 0; i < 4; ++i)
       det.corners_px[i] =
           cam ? cam->DistortPixel(det.corners_undistorted[i]) : det.corners_undistorted[i];

@@ -106,6 +106,41 @@ TEST(EdgeRefine, FramedObjectOnAFloorOfItsFramesGreyGetsItsOutline) {
   EXPECT_LT(MaxError(p.corners_undistorted, outline), 0.3);
 }
 
+// A wall plate's shadow (RectDetectorOptions::frame_band_max_frac, the shadow case): a bright plate
+// (215) on a wall (150) casts a dark band (110) 3.5 px wide below it. Started on the band's outer
+// edge (where the detector's segment of that side lies on a real plate: the DM-VIO walk's switch
+// plates came out 2-4 px too tall), the bottom side moves up onto the plate's edge: a shadow falls
+// on one side, a frame runs round.
+TEST(EdgeRefine, PlatesShadowIsNotPartOfThePlate) {
+  const Vec2 u(45.3, -0.6), v(-0.6, -44.8), s1(300.4, 260.3);
+  const Corners plate = {s1, s1 + u, s1 + u + v, s1 + v};
+  const Vec2 down = -3.5 * v.normalized();
+  const Corners shadow = {s1 + down, s1 + u + down, s1 + u + v, s1 + v};
+  const cv::Mat img = test::RenderQuads(640, 480, {{shadow, 110}, {plate, 215}}, 0.8, 2.0,
+                                        /*seed=*/4, /*background=*/150);
+  const cv::Mat smooth = EdgeRefineImage(img);
+  Corners start = plate;
+  start[0] = s1 + down;
+  start[1] = s1 + u + down;
+  RectDetectorOptions off;
+  off.frame_band_max_frac = 0.0;
+  const EdgeRefinement on_shadow = RefineCornersOnEdges(smooth, nullptr, start, 2.0, off);
+  ASSERT_TRUE(on_shadow.ok);
+  EXPECT_GT(MaxError(on_shadow.corners_undistorted, plate), 2.5);  // without the rule
+  const EdgeRefinement r = RefineCornersOnEdges(smooth, nullptr, start, 2.0, RectDetectorOptions());
+  ASSERT_TRUE(r.ok);
+  EXPECT_LT(MaxError(r.corners_undistorted, plate), 0.5)
+      << "bottom corners " << r.corners_undistorted[0].transpose() << ", "
+      << r.corners_undistorted[1].transpose();
+  // Without a shadow the plate keeps its outline.
+  const cv::Mat plain =
+      test::RenderQuads(640, 480, {{plate, 215}}, 0.8, 2.0, /*seed=*/4, /*background=*/150);
+  const EdgeRefinement p =
+      RefineCornersOnEdges(EdgeRefineImage(plain), nullptr, plate, 2.0, RectDetectorOptions());
+  ASSERT_TRUE(p.ok);
+  EXPECT_LT(MaxError(p.corners_undistorted, plate), 0.3);
+}
+
 // A poster with a thin dark frame `w` px wide: paper 228 in a frame of 40, on a wall of 150, seen
 // at a slight angle (blur 0.8 px, noise 2 grey levels).
 struct ThinFramedPoster {

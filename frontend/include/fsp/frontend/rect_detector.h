@@ -234,7 +234,9 @@ struct RectDetectorOptions {
   // its outline to an edge of the fourth side's polarity, within this fraction of the quad's
   // shortest side. The fourth side is then moved out by the band's width there (scaled by the two
   // sides' length ratio, the perspective) when the band's grey lies outside it, and onto an edge
-  // found there. 0: off.
+  // found there. The same odd side of a bright object with no frame on the opposite side is the
+  // outer edge of its shadow (a wall plate's): it moves in onto the object's edge, the strongest
+  // rise to the object's grey within this fraction, and the thin-band rules leave it there. 0: off.
   double frame_band_max_frac = 0.2;
   // Thin bands: a side whose edge has an edge of the opposite polarity within this distance on one
   // side of it (a poster's thin dark frame, a door's architrave line) is found too far from the
