@@ -103,8 +103,8 @@ bool SnapSide(const EdgeProbe& probe, int j, double shift_in, Corners* corners) 
 }
 
 // A bright object's side j found on the outer edge of its shadow on the wall (a switch plate's, a
-// sheet's: a shadow falls on one side, a frame runs round; MoveOntoFrameOutline found no band on
-// the opposite side): its inside darker than its outside where the three other sides' is brighter.
+// sheet's: a shadow falls on one side, a frame runs round; tried when FrameOutline finds no frame):
+// its inside darker than its outside where the three other sides' is brighter.
 // Inward from it within MAX_D, each position's strongest rise to the object's grey (at least half
 // the other sides' median contrast); consistent over 2/3 of the positions, the side moves onto it.
 bool MoveOffShadow(const EdgeProbe& probe, int j, const std::array<double, 4>& contrast,
