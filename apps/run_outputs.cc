@@ -1,26 +1,15 @@
 #include "run_outputs.h"
 
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
 
 #include "fsp/common/atomic_file.h"
 #include "fsp/common/error.h"
+#include "fsp/common/median.h"
 
 namespace fsp::apps {
 
 namespace {
-
-// Quantile q in [0, 1] of sorted values: linear interpolation between the order statistics at
-// positions floor(q (n-1)) and ceil(q (n-1)) (numpy's default).
-double Quantile(const std::vector<double>& sorted, double q) {
-  if (sorted.empty()) return 0.0;
-  const double pos = q * static_cast<double>(sorted.size() - 1);
-  const size_t lo = static_cast<size_t>(std::floor(pos));
-  const size_t hi = std::min(lo + 1, sorted.size() - 1);
-  const double frac = pos - static_cast<double>(lo);
-  return sorted[lo] + frac * (sorted[hi] - sorted[lo]);
-}
 
 nlohmann::ordered_json StatsJson(const StageStats& s) {
   return {
@@ -33,13 +22,12 @@ StageStats ComputeStageStats(std::vector<double> ms) {
   StageStats s;
   s.count = static_cast<int>(ms.size());
   if (ms.empty()) return s;
-  std::sort(ms.begin(), ms.end());
-  s.median = Quantile(ms, 0.5);
-  s.p90 = Quantile(ms, 0.9);
+  s.median = Percentile(ms, 0.5);
+  s.p90 = Percentile(ms, 0.9);
   double sum = 0.0;
   for (double v : ms) sum += v;
   s.mean = sum / static_cast<double>(ms.size());
-  s.max = ms.back();
+  s.max = *std::max_element(ms.begin(), ms.end());
   return s;
 }
 

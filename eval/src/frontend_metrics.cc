@@ -207,15 +207,6 @@ double WorstCornerError(const std::vector<CornerRow>& gt, const std::vector<Corn
   return *std::max_element(err.begin(), err.end());
 }
 
-// numpy.percentile (linear interpolation) of non-empty VALUES at Q in [0, 1].
-double Percentile(std::vector<double> values, double q) {
-  std::sort(values.begin(), values.end());
-  const double at = q * static_cast<double>(values.size() - 1);
-  const size_t lo = static_cast<size_t>(std::floor(at));
-  const size_t hi = std::min(lo + 1, values.size() - 1);
-  return values[lo] + (at - static_cast<double>(lo)) * (values[hi] - values[lo]);
-}
-
 // One object's tracking (see ObjectTracking). Success over its fully visible rows from its first
 // match on: matched with every corner within SUCCESS_PX.
 ObjectTracking TrackObject(const std::vector<CornerRow>& gt, const std::vector<CornerRow>& est,

@@ -44,6 +44,33 @@ double PositionT(int k) {
   return 0.15 + 0.7 * (k + 0.5) / kPositions;
 }
 
+constexpr double kProfileStep = 0.5;  // spacing of the inward profiles [px]
+
+// The grey profile inward from b along n: samples 0..K+1, kProfileStep apart; false where one
+// leaves the image.
+bool InwardProfile(const EdgeProbe& probe, const Vec2& b, const Vec2& n, int K,
+                   std::vector<double>* prof) {
+  prof->resize(static_cast<size_t>(K + 2));
+  for (int s = 0; s <= K + 1; ++s)
+    if (!GreyAt(probe, b + (s * kProfileStep) * n, &(*prof)[s])) return false;
+  return true;
+}
+
+// The sample s in [2, K) of PROF's strongest step SIGN x (prof[s+1] - prof[s-1]) > 0 [grey levels
+// per px] (-1: none), its size in *D.
+int StrongestStep(const std::vector<double>& prof, int K, int sign, double* d) {
+  int best = -1;
+  *d = 0.0;
+  for (int s = 2; s < K; ++s) {
+    const double step = sign * (prof[s + 1] - prof[s - 1]);
+    if (step > *d) {
+      *d = step;
+      best = s;
+    }
+  }
+  return best;
+}
+
 // Side j of quad C moved along its inward normal by SHIFT_IN [px] (negative: outward), onto an edge
 // found within 1.5 px of there (else exactly there), and the corners re-intersected; false (C
 // unchanged) when the result is not a convex quad.
@@ -118,26 +145,15 @@ bool MoveOffShadow(const EdgeProbe& probe, int j, const std::array<double, 4>& c
   if (!(object_contrast > 0.0)) return false;
   const Vec2 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
   const Vec2 P = c[(j + 3) % 4], Q = c[j], n = InwardNormal(P, Q, centre);
-  const double step = 0.5;
-  const int K = static_cast<int>(max_d / step);
+  const int K = static_cast<int>(max_d / kProfileStep);
   if (K < 4) return false;
-  std::vector<double> widths, prof(static_cast<size_t>(K + 2));
+  std::vector<double> widths, prof;
   for (int k = 0; k < kPositions; ++k) {
-    const Vec2 b = P + PositionT(k) * (Q - P);
-    bool ok = true;
-    for (int s = 0; s <= K + 1 && ok; ++s) ok = GreyAt(probe, b + (s * step) * n, &prof[s]);
-    if (!ok) continue;
-    int best = -1;
-    double best_d = 0.0;
-    for (int s = 2; s < K; ++s) {
-      const double d = prof[s + 1] - prof[s - 1];  // the rise into the object [grey levels / px]
-      if (d > best_d) {
-        best_d = d;
-        best = s;
-      }
-    }
-    if (best < 0 || best_d < 0.5 * object_contrast) continue;
-    widths.push_back(best * step);
+    if (!InwardProfile(probe, P + PositionT(k) * (Q - P), n, K, &prof)) continue;
+    double rise;  // into the object
+    const int best = StrongestStep(prof, K, 1, &rise);
+    if (best < 0 || rise < 0.5 * object_contrast) continue;
+    widths.push_back(best * kProfileStep);
   }
   if (static_cast<int>(widths.size()) < 2 * kPositions / 3) return false;
   const double w = Median(widths);
@@ -155,30 +171,19 @@ bool FrameOutline(const EdgeProbe& probe, int j, const std::array<double, 4>& co
   const int opp = (j + 2) % 4;
   // The band on the opposite side: from its outline inward to a step of side j's polarity.
   const Vec2 Po = c[(opp + 3) % 4], Qo = c[opp], no = InwardNormal(Po, Qo, centre);
-  const double step = 0.5;
-  const int K = static_cast<int>(max_d / step);
+  const int K = static_cast<int>(max_d / kProfileStep);
   if (K < 4) return false;
-  std::vector<double> widths, band, panel, prof(static_cast<size_t>(K + 2));
+  std::vector<double> widths, band, panel, prof;
   for (int k = 0; k < kPositions; ++k) {
-    const Vec2 b = Po + PositionT(k) * (Qo - Po);
-    bool ok = true;
-    for (int s = 0; s <= K + 1 && ok; ++s) ok = GreyAt(probe, b + (s * step) * no, &prof[s]);
-    if (!ok) continue;
-    int best = -1;
-    double best_d = 0.0;
-    for (int s = 2; s < K; ++s) {
-      const double d = pol[j] * (prof[s + 1] - prof[s - 1]);  // grey levels per px
-      if (d > best_d) {
-        best_d = d;
-        best = s;
-      }
-    }
+    if (!InwardProfile(probe, Po + PositionT(k) * (Qo - Po), no, K, &prof)) continue;
+    double best_d;
+    const int best = StrongestStep(prof, K, pol[j], &best_d);
     if (best < 0 || best_d < 0.25 * std::abs(contrast[j])) continue;
     const double dm = pol[j] * (prof[best] - prof[best - 2]);
     const double dp = best + 2 <= K + 1 ? pol[j] * (prof[best + 2] - prof[best]) : best_d;
     const double den = dm - 2.0 * best_d + dp;
     const double delta = den < 0.0 ? std::clamp(0.5 * (dm - dp) / den, -0.5, 0.5) : 0.0;
-    widths.push_back((best + delta) * step);
+    widths.push_back((best + delta) * kProfileStep);
     band.push_back(prof[static_cast<size_t>(best / 2)]);
     panel.push_back(prof[static_cast<size_t>(std::min(best + 3, K + 1))]);
   }
@@ -210,12 +215,11 @@ bool FrameOutline(const EdgeProbe& probe, int j, const std::array<double, 4>& co
   return SnapSide(probe, j, -w_j, &c);
 }
 
-// The frame outline and the shadow (frame_band_max_frac); *SHADOW_SIDE: the side moved off a
-// shadow, else -1.
-bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* corners, int* shadow_side) {
-  *shadow_side = -1;
+// The frame outline and the shadow (frame_band_max_frac); returns the side moved off a shadow,
+// else -1.
+int MoveOntoFrameOutline(const EdgeProbe& probe, Corners* corners) {
   const RectDetectorOptions& o = probe.o;
-  if (!(o.frame_band_max_frac > 0.0)) return false;
+  if (!(o.frame_band_max_frac > 0.0)) return -1;
   Corners& c = *corners;
   const Vec2 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
   std::array<double, 4> contrast{};
@@ -229,7 +233,7 @@ bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* corners, int* shadow_
       if (GreyAt(probe, b + 1.5 * n, &vin) && GreyAt(probe, b - 1.5 * n, &vout))
         diffs.push_back(vin - vout);
     }
-    if (static_cast<int>(diffs.size()) < kPositions / 2) return false;
+    if (static_cast<int>(diffs.size()) < kPositions / 2) return -1;
     contrast[i] = Median(diffs);
     pol[i] = contrast[i] > 0.0 ? 1 : -1;
   }
@@ -237,12 +241,10 @@ bool MoveOntoFrameOutline(const EdgeProbe& probe, Corners* corners, int* shadow_
   int j = -1;
   for (int i = 0; i < 4; ++i)
     if (pol[i] != pol[(i + 1) % 4] && pol[i] != pol[(i + 3) % 4]) j = i;
-  if (j < 0) return false;
+  if (j < 0) return -1;
   const double max_d = o.frame_band_max_frac * ShortestSide(c);
-  if (FrameOutline(probe, j, contrast, pol, max_d, &c)) return true;
-  if (!MoveOffShadow(probe, j, contrast, max_d, &c)) return false;
-  *shadow_side = j;
-  return true;
+  if (FrameOutline(probe, j, contrast, pol, max_d, &c)) return -1;
+  return MoveOffShadow(probe, j, contrast, max_d, &c) ? j : -1;
 }
 
 }  // namespace
@@ -483,8 +485,7 @@ void CorrectBandOffsets(const EdgeProbe& probe, int skip, Corners* corners) {
 }  // namespace
 
 void CorrectSides(const EdgeProbe& probe, Corners* c) {
-  int shadow_side = -1;
-  MoveOntoFrameOutline(probe, c, &shadow_side);
+  const int shadow_side = MoveOntoFrameOutline(probe, c);
   CorrectBandOffsets(probe, shadow_side, c);
 }
 

@@ -265,6 +265,12 @@ TEST(Stats, MatchesNumpyConventions) {
   EXPECT_DOUBLE_EQ(s.min, 1.0);
   EXPECT_DOUBLE_EQ(s.max, 4.0);
   EXPECT_DOUBLE_EQ(Median({5.0, 1.0, 3.0}), 3.0);
+  // numpy.percentile([3, 1, 4, 2], [0, 50, 90, 100]) = 1, 2.5, 3.7, 4.
+  EXPECT_DOUBLE_EQ(::fsp::Percentile({3.0, 1.0, 4.0, 2.0}, 0.0), 1.0);
+  EXPECT_DOUBLE_EQ(::fsp::Percentile({3.0, 1.0, 4.0, 2.0}, 0.5), 2.5);
+  EXPECT_NEAR(::fsp::Percentile({3.0, 1.0, 4.0, 2.0}, 0.9), 3.7, 1e-12);
+  EXPECT_DOUBLE_EQ(::fsp::Percentile({3.0, 1.0, 4.0, 2.0}, 1.0), 4.0);
+  EXPECT_DOUBLE_EQ(::fsp::Percentile({}, 0.9), 0.0);
 }
 
 }  // namespace
