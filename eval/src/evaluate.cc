@@ -352,6 +352,10 @@ std::string FormatSummary(const Metrics& m) {
     os << "trajectory: " << t.pairs << " pairs (" << t.ref_poses << " reference, " << t.est_poses
        << " estimated poses), " << ToString(t.alignment.mode) << " alignment";
     if (t.alignment.mode == AlignMode::kSim3) os << ", scale " << Format("%.6f", t.alignment.scale);
+    if (2 * t.pairs < t.possible_pairs)
+      os << "\n  warning: only " << t.pairs << " of the " << t.possible_pairs
+         << " pairs the two time spans allow: are the stamps of different clocks? (--t-offset; a "
+            "camera-IMU time offset moves the estimate's stamps)";
     os << "\n  ATE rmse " << Format("%.6f", t.ate.rmse) << " m, mean " << Format("%.6f", t.ate.mean)
        << " m, median " << Format("%.6f", t.ate.median) << " m, max " << Format("%.6f", t.ate.max)
        << " m\n";

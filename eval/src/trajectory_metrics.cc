@@ -147,6 +147,14 @@ TrajectoryMetrics EvaluateTrajectory(const Trajectory& ref, const Trajectory& es
   m.ref_poses = ref.size();
   m.est_poses = est.size();
   m.pairs = assoc.size();
+  const double off = options.association.offset_s, slack = options.association.max_diff_s;
+  auto inside = [&](const std::vector<double>& t_s, double shift, double lo, double hi) {
+    return static_cast<size_t>(std::count_if(t_s.begin(), t_s.end(), [&](double t) {
+      return t + shift >= lo - slack && t + shift <= hi + slack;
+    }));
+  };
+  m.possible_pairs = std::min(inside(ref.t_s, 0.0, est.t_s.front() + off, est.t_s.back() + off),
+                              inside(est.t_s, off, ref.t_s.front(), ref.t_s.back()));
   std::vector<Vec3> p_ref(m.pairs), p_est(m.pairs);
   for (size_t k = 0; k < m.pairs; ++k) {
     p_ref[k] = ref.T_W_B[assoc.ref[k]].translation();

@@ -7,6 +7,7 @@
 
 #include "fsp/common/error.h"
 #include "fsp/common/time.h"
+#include "fsp/eval/evaluate.h"
 #include "fsp/eval/trajectory_metrics.h"
 #include "test_util.h"
 
@@ -231,6 +232,29 @@ TEST(EvaluateTrajectory, NoOverlapAndTooFewPairsAreClearErrors) {
               std::string::npos)
         << e.what();
   }
+}
+
+// A camera at an irregular rate (steps of 33, 67 and 40 ms, as a RealSense's) whose estimate is
+// stamped on the IMU's clock, 45 ms before the reference's camera stamps: few stamps meet within 10
+// ms, and the summary says so; with the offset given, every pose pairs and nothing is said.
+TEST(EvaluateTrajectory, StampsOfAnotherClockAreWarned) {
+  std::vector<double> t_ref, t_est;
+  for (int i = 0; i < 200; ++i) {
+    const double step[3] = {0.033, 0.067, 0.040};
+    t_ref.push_back(i == 0 ? 10.0 : t_ref.back() + step[i % 3]);
+    t_est.push_back(t_ref.back() - 0.045);
+  }
+  Metrics m;
+  m.trajectory = EvaluateTrajectory(Timed(t_ref), Timed(t_est), TrajectoryOptions{});
+  EXPECT_LT(2 * m.trajectory->pairs, m.trajectory->possible_pairs);
+  EXPECT_GE(m.trajectory->possible_pairs, 195u);
+  EXPECT_NE(FormatSummary(m).find("warning: only"), std::string::npos) << FormatSummary(m);
+  TrajectoryOptions shifted;
+  shifted.association.offset_s = 0.045;
+  m.trajectory = EvaluateTrajectory(Timed(t_ref), Timed(t_est), shifted);
+  EXPECT_EQ(m.trajectory->pairs, 200u);
+  EXPECT_EQ(m.trajectory->possible_pairs, 200u);
+  EXPECT_EQ(FormatSummary(m).find("warning"), std::string::npos) << FormatSummary(m);
 }
 
 TEST(ReadTrajectory, TellsEurocFromTum) {

@@ -72,6 +72,9 @@ struct TrajectoryMetrics {
   size_t ref_poses = 0;
   size_t est_poses = 0;
   size_t pairs = 0;
+  // The most pairs the two could give: the fewer of their poses inside the other's time span
+  // (the offset applied, max_diff_s either side). Far fewer pairs: stamps of different clocks.
+  size_t possible_pairs = 0;
   Alignment alignment;       // p_ref = s R p_est + t
   double scale_error = 0.0;  // |s − 1| (Sim3 only; 0 otherwise)
   ErrorStats ate;            // [m]
