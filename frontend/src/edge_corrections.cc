@@ -71,6 +71,16 @@ int StrongestStep(const std::vector<double>& prof, int K, int sign, double* d) {
   return best;
 }
 
+// A band's width from its widths at the kPositions places: their median *W when at least 2/3 of
+// the places gave one and 2/3 lie within 1 px of it.
+bool ConsistentWidth(const std::vector<double>& widths, double* w) {
+  if (static_cast<int>(widths.size()) < 2 * kPositions / 3) return false;
+  *w = Median(widths);
+  int consistent = 0;
+  for (double x : widths) consistent += std::abs(x - *w) <= 1.0;
+  return consistent >= 2 * kPositions / 3;
+}
+
 // Side j of quad C moved along its inward normal by SHIFT_IN [px] (negative: outward), onto an edge
 // found within 1.5 px of there (else exactly there), and the corners re-intersected; false (C
 // unchanged) when the result is not a convex quad.
@@ -155,11 +165,8 @@ bool MoveOffShadow(const EdgeProbe& probe, int j, const std::array<double, 4>& c
     if (best < 0 || rise < 0.5 * object_contrast) continue;
     widths.push_back(best * kProfileStep);
   }
-  if (static_cast<int>(widths.size()) < 2 * kPositions / 3) return false;
-  const double w = Median(widths);
-  int consistent = 0;
-  for (double x : widths) consistent += std::abs(x - w) <= 1.0;
-  if (consistent < 2 * kPositions / 3 || w < 1.0) return false;
+  double w;
+  if (!ConsistentWidth(widths, &w) || w < 1.0) return false;
   return SnapSide(probe, j, w, corners);
 }
 
@@ -187,12 +194,10 @@ bool FrameOutline(const EdgeProbe& probe, int j, const std::array<double, 4>& co
     band.push_back(prof[static_cast<size_t>(best / 2)]);
     panel.push_back(prof[static_cast<size_t>(std::min(best + 3, K + 1))]);
   }
-  if (static_cast<int>(widths.size()) < 2 * kPositions / 3) return false;
-  const double w_opp = Median(widths), grey_band = Median(band);
+  double w_opp;
+  if (!ConsistentWidth(widths, &w_opp)) return false;
+  const double grey_band = Median(band);
   const double frame_contrast = std::abs(Median(panel) - grey_band);
-  int consistent = 0;
-  for (double w : widths) consistent += std::abs(w - w_opp) <= 1.0;
-  if (consistent < 2 * kPositions / 3) return false;
   // Side j is a frame's inner edge: its contrast is the frame's, not a faint outline's.
   if (std::abs(contrast[j]) < 0.5 * frame_contrast || frame_contrast < 16.0) return false;
   // The band's width at side j and its grey outside side j (not inside it: there is the panel).

@@ -1,6 +1,7 @@
 // The detector's edge refinement as a function of its own (RefineCornersOnEdges): a quad given with
 // corners a pixel or two off (what a tracker's homography predicts) is pulled onto the image edges.
 #include <cstdio>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -21,6 +22,16 @@ double MaxError(const Corners& a, const Corners& b) {
   double e = 0.0;
   for (int i = 0; i < 4; ++i) e = std::max(e, (a[i] - b[i]).norm());
   return e;
+}
+
+// The refinement from START on SMOOTH with the frame and shadow rule (frame_band_max_frac) off,
+// then with the defaults.
+std::pair<EdgeRefinement, EdgeRefinement> WithoutAndWithFrameRule(const cv::Mat& smooth,
+                                                                  const Corners& start) {
+  RectDetectorOptions off;
+  off.frame_band_max_frac = 0.0;
+  return {RefineCornersOnEdges(smooth, nullptr, start, 2.0, off),
+          RefineCornersOnEdges(smooth, nullptr, start, 2.0, RectDetectorOptions())};
 }
 
 TEST(EdgeRefine, PullsOffsetCornersOntoTheEdges) {
@@ -80,12 +91,9 @@ TEST(EdgeRefine, FramedObjectOnAFloorOfItsFramesGreyGetsItsOutline) {
   Corners start = outline;
   start[0] = s1 + iv;
   start[1] = s1 + u + iv;
-  RectDetectorOptions off;
-  off.frame_band_max_frac = 0.0;
-  const EdgeRefinement inner = RefineCornersOnEdges(smooth, nullptr, start, 2.0, off);
+  const auto [inner, r] = WithoutAndWithFrameRule(smooth, start);
   ASSERT_TRUE(inner.ok);
   EXPECT_GT(MaxError(inner.corners_undistorted, outline), 5.0);  // without the rule: the panel's
-  const EdgeRefinement r = RefineCornersOnEdges(smooth, nullptr, start, 2.0, RectDetectorOptions());
   ASSERT_TRUE(r.ok);
   EXPECT_LT(MaxError(r.corners_undistorted, outline), 0.5)
       << "bottom corners " << r.corners_undistorted[0].transpose() << ", "
@@ -122,12 +130,9 @@ TEST(EdgeRefine, PlatesShadowIsNotPartOfThePlate) {
   Corners start = plate;
   start[0] = s1 + down;
   start[1] = s1 + u + down;
-  RectDetectorOptions off;
-  off.frame_band_max_frac = 0.0;
-  const EdgeRefinement on_shadow = RefineCornersOnEdges(smooth, nullptr, start, 2.0, off);
+  const auto [on_shadow, r] = WithoutAndWithFrameRule(smooth, start);
   ASSERT_TRUE(on_shadow.ok);
   EXPECT_GT(MaxError(on_shadow.corners_undistorted, plate), 2.5);  // without the rule
-  const EdgeRefinement r = RefineCornersOnEdges(smooth, nullptr, start, 2.0, RectDetectorOptions());
   ASSERT_TRUE(r.ok);
   EXPECT_LT(MaxError(r.corners_undistorted, plate), 0.5)
       << "bottom corners " << r.corners_undistorted[0].transpose() << ", "
