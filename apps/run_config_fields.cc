@@ -66,6 +66,7 @@ std::vector<Field> Fields(RunConfig& c) {
       {"estimator.points.global_sigma_m", &e.points.global_sigma_m, kPositive},
       {"estimator.points.global_sigma_per_m", &e.points.global_sigma_per_m, kNonNegative},
       {"estimator.points.global_sigma_deg", &e.points.global_sigma_deg, kPositive},
+      {"estimator.points.global_shape_links", &e.points.global_shape_links, kAny},
       {"estimator.zero_velocity.enabled", &e.zero_velocity.enabled, kAny},
       {"estimator.zero_velocity.imu_confidence", &e.zero_velocity.imu_confidence,
        Range{0.5, true, 1.0}},

@@ -192,8 +192,8 @@ void Estimator::Impl::RefineYoungObjects(int max_iterations) {
 
 void Estimator::Impl::DropInconsistentObjects() {
   constexpr size_t kMinViews = 3, kMinMatureViews = 5;
-  // Each object's views in the window: their distances from it [px].
-  std::map<const Object*, std::vector<double>> errors;
+  // Each object's views in the window: their distances from it [px], and in their σ.
+  std::map<const Object*, std::vector<double>> errors, normalized;
   for (size_t i = window_begin; i < keyframes.size(); ++i) {
     const Keyframe& kf = *keyframes[i];
     for (const ObjectObservation& o : kf.observations) {
@@ -201,8 +201,16 @@ void Estimator::Impl::DropInconsistentObjects() {
       if (!obj) continue;
       const std::optional<double> e = PredictionError(*obj, CameraPose(kf), o.corners, o.seen);
       errors[obj].push_back(e ? *e : std::numeric_limits<double>::infinity());
+      const double sigma = o.sigma_px > 0.0 ? o.sigma_px : options.factor.sigma_px;
+      normalized[obj].push_back(errors[obj].back() / sigma);
     }
   }
+  // A mature object's noise: the typical view against its σ. The RMS corner distance of a view
+  // with Gaussian noise of σ per coordinate is σ sqrt(χ²₈ / 4), whose median is 1.355 σ.
+  constexpr double kMedianRmsPerSigma = 1.355;
+  for (auto& [id, obj] : objects)
+    if (Mature(*obj) && normalized[obj.get()].size() >= kMinMatureViews)
+      obj->noise_scale = std::max(1.0, Median(normalized[obj.get()]) / kMedianRmsPerSigma);
   for (auto it = objects.begin(); it != objects.end();) {
     const Object& obj = *it->second;
     const std::vector<double>& views = errors[&obj];

@@ -75,13 +75,12 @@ void Estimator::Impl::AddPointViews(Keyframe* kf) {
     ++live;
     ++summary.points_used;
   }
-  if (kf->observations.empty()) {
-    kf->points_only =
-        std::any_of(kf->points.begin(), kf->points.end(), [&](const PointObservation& p) {
-          auto it = point_tracks.find(p.point_id);
-          return it != point_tracks.end() && it->second.live;
-        });
-  }
+  kf->sees_points =
+      std::any_of(kf->points.begin(), kf->points.end(), [&](const PointObservation& p) {
+        auto it = point_tracks.find(p.point_id);
+        return it != point_tracks.end() && it->second.live;
+      });
+  kf->points_only = kf->observations.empty() && kf->sees_points;
 }
 
 bool Estimator::Impl::TriangulatePoint(PointTrack* t) const {

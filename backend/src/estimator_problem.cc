@@ -179,9 +179,11 @@ void Estimator::Impl::AddObservation(ceres::Problem* problem, Keyframe* kf, Obje
   // Nothing added when the object is behind the camera.
   const LandmarkContext* c = &landmark_context;
   LandmarkContext own_sigma;
-  if (sigma_px > 0.0 && sigma_px != landmark_context.factor.sigma_px) {
+  const double sigma =
+      (sigma_px > 0.0 ? sigma_px : landmark_context.factor.sigma_px) * obj->noise_scale;
+  if (sigma != landmark_context.factor.sigma_px) {
     own_sigma = landmark_context;
-    own_sigma.factor.sigma_px = sigma_px;
+    own_sigma.factor.sigma_px = sigma;
     c = &own_sigma;
   }
   obj->landmark.AddObservation(problem, corners, seen, kf->state.pose, obj->anchor->state.pose,
@@ -363,16 +365,18 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs,
   // rectangle at 28 s started global solves that moved 28 s of dead reckoning by 5 m). Shorter
   // stretches the IMU bridges between objects (backend/README.md, "Points").
   const PointOptions& po = options.points;
-  const auto tie = [&](Keyframe* a, Keyframe* b) {
+  const auto tie = [&](Keyframe* a, Keyframe* b, bool free_length) {
     if ((!is_free(a) && !is_free(b)) || b->gauge) return;
     const Rigid3 T_a_b =
         b->window_motion ? *b->window_motion : a->state.T_W_B().Inverse() * b->state.T_W_B();
     problem->AddResidualBlock(
         MakeRelativePosePrior(
             T_a_b, po.global_sigma_m + po.global_sigma_per_m * T_a_b.translation().norm(),
-            po.global_sigma_deg * M_PI / 180.0),
+            po.global_sigma_deg * M_PI / 180.0, free_length),
         nullptr, a->state.pose, b->state.pose);
   };
+  // whole[k]: keyframe k is tied to k - 1 by the whole relative pose.
+  std::vector<bool> whole(kfs->size(), false);
   for (size_t i = free_from; i < kfs->size();) {
     if (!(*kfs)[i]->observations.empty()) {
       ++i;
@@ -384,12 +388,17 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs,
     const int64_t to = (*kfs)[end < kfs->size() ? end : end - 1]->state.t_ns;
     if (NsToSeconds(to - from) >= options.faults.blind_s) {
       for (size_t k = std::max<size_t>(i, 1); k < end; ++k)
-        if ((*kfs)[k]->points_only || (*kfs)[k - 1]->points_only)
-          tie((*kfs)[k - 1].get(), (*kfs)[k].get());
-      if (end < kfs->size() && (*kfs)[end - 1]->points_only)
-        tie((*kfs)[end - 1].get(), (*kfs)[end].get());
+        whole[k] = (*kfs)[k]->points_only || (*kfs)[k - 1]->points_only;
+      if (end < kfs->size()) whole[end] = (*kfs)[end - 1]->points_only;
     }
     i = end;
+  }
+  for (size_t k = std::max<size_t>(free_from, 1); k < kfs->size(); ++k) {
+    Keyframe *a = (*kfs)[k - 1].get(), *b = (*kfs)[k].get();
+    if (whole[k])
+      tie(a, b, /*free_length=*/false);
+    else if (po.global_shape_links && a->sees_points && b->sees_points)
+      tie(a, b, /*free_length=*/true);
   }
   const Snapshot before = Save(*kfs, *objs, free_from);
   ceres::Solve(solver, problem, s);

@@ -53,6 +53,9 @@ struct Keyframe {
   // It saw no object, only live points: the global step (which holds no points) ties it to its
   // neighbours by the window's estimate (backend/README.md, "Points").
   bool points_only = false;
+  // It saw live points (with or without objects): the global step ties it to the keyframe before
+  // by the shape of their relative pose (PointOptions::global_shape_links).
+  bool sees_points = false;
   // The window's estimate of T_Bprev_B (the previous keyframe's body to this one's), taken when the
   // previous keyframe left the window with points in use.
   std::optional<Rigid3> window_motion;
@@ -75,6 +78,10 @@ struct Object {
   int observations = 0;
   int first_seen = -1;  // index of the keyframe that first saw it (its first anchor)
   int last_seen = -1;   // index of the newest keyframe that saw it
+  // Its views' σ are their own times this (>= 1): how far its views in the window typically lie
+  // from it, in their σ (Estimator::Impl::DropInconsistentObjects; backend/README.md, "Objects on
+  // probation").
+  double noise_scale = 1.0;
   // Observations from keyframes that left the window (pose constant), newest last, capped.
   struct PastView {
     Keyframe* keyframe;

@@ -134,6 +134,7 @@ struct RelativePoseResidual {
   Vec3 t_ij;
   Eigen::Vector4d q_ij_conj;  // (w, x, y, z)
   double inv_p, inv_rot;
+  Vec3 along;  // unit vector along t_ij whose component is dropped, or zero
 
   template <typename T>
   bool operator()(const T* pose_i, const T* pose_j, T* r) const {
@@ -143,7 +144,10 @@ struct RelativePoseResidual {
     const T dp[3] = {pose_j[0] - pose_i[0], pose_j[1] - pose_i[1], pose_j[2] - pose_i[2]};
     T p_i_j[3];
     ceres::UnitQuaternionRotatePoint(qi_conj, dp, p_i_j);
-    for (int k = 0; k < 3; ++k) r[k] = inv_p * (p_i_j[k] - t_ij[k]);
+    T d[3];
+    for (int k = 0; k < 3; ++k) d[k] = p_i_j[k] - t_ij[k];
+    const T d_along = d[0] * along[0] + d[1] * along[1] + d[2] * along[2];
+    for (int k = 0; k < 3; ++k) r[k] = inv_p * (d[k] - d_along * along[k]);
     T q_i_j[4], err[4];
     ceres::QuaternionProduct(qi_conj, qj, q_i_j);
     const T meas[4] = {T(q_ij_conj[0]), T(q_ij_conj[1]), T(q_ij_conj[2]), T(q_ij_conj[3])};
@@ -156,12 +160,16 @@ struct RelativePoseResidual {
 
 }  // namespace
 
-ceres::CostFunction* MakeRelativePosePrior(const Rigid3& T_i_j, double sigma_p, double sigma_rot) {
+ceres::CostFunction* MakeRelativePosePrior(const Rigid3& T_i_j, double sigma_p, double sigma_rot,
+                                           bool free_length) {
   FSP_CHECK(sigma_p > 0.0 && sigma_rot > 0.0);
   const Quat q = T_i_j.rotation();
+  const double length = T_i_j.translation().norm();
+  const Vec3 along =
+      free_length && length > 0.0 ? Vec3(T_i_j.translation() / length) : Vec3::Zero();
   auto* r =
       new RelativePoseResidual{T_i_j.translation(), Eigen::Vector4d(q.w(), -q.x(), -q.y(), -q.z()),
-                               1.0 / sigma_p, 1.0 / sigma_rot};
+                               1.0 / sigma_p, 1.0 / sigma_rot, along};
   return new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 7, 7>(r);
 }
 

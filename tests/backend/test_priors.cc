@@ -130,11 +130,42 @@ TEST(Priors, RelativePosePriorJacobiansMatchNumeric) {
   for (int trial = 0; trial < 6; ++trial) {
     KeyframeState a = RandomState(rng), b = RandomState(rng);
     const Rigid3 T_a_b(ExpSO3(RandomVec(rng, 1.0)), RandomVec(rng, 2.0));
-    std::unique_ptr<ceres::CostFunction> prior(MakeRelativePosePrior(T_a_b, 0.01, 0.002));
-    EXPECT_TRUE(
-        test::ExpectJacobiansOk(*prior, {a.pose, b.pose}, {&pose_manifold, &pose_manifold}, 1e-5))
-        << "trial " << trial;
+    for (bool free_length : {false, true}) {
+      std::unique_ptr<ceres::CostFunction> prior(
+          MakeRelativePosePrior(T_a_b, 0.01, 0.002, free_length));
+      EXPECT_TRUE(
+          test::ExpectJacobiansOk(*prior, {a.pose, b.pose}, {&pose_manifold, &pose_manifold}, 1e-5))
+          << "trial " << trial << (free_length ? ", free length" : "");
+    }
   }
+}
+
+// With the length free, the pair's relative pose scaled along its translation (a longer or shorter
+// step in the same direction) gives no residual; a step across it is penalised as with the
+// whole prior.
+TEST(Priors, RelativePosePriorWithFreeLengthHoldsOnlyTheDirection) {
+  const Rigid3 T_a_b(ExpSO3(Vec3(0.1, -0.2, 0.3)), Vec3(0.5, 0.1, -0.2));
+  const double sigma_p = 0.01, sigma_rot = 0.002;
+  std::unique_ptr<ceres::CostFunction> free(
+      MakeRelativePosePrior(T_a_b, sigma_p, sigma_rot, /*free_length=*/true));
+  std::unique_ptr<ceres::CostFunction> whole(MakeRelativePosePrior(T_a_b, sigma_p, sigma_rot));
+  const Rigid3 T_W_a(ExpSO3(Vec3(0.4, 0.2, -1.0)), Vec3(1.0, 2.0, 0.5));
+  const auto residual = [&](const ceres::CostFunction& prior, const Rigid3& T_a_b_now) {
+    KeyframeState a, b;
+    a.SetT_W_B(T_W_a);
+    b.SetT_W_B(T_W_a * T_a_b_now);
+    Eigen::Matrix<double, 6, 1> r;
+    const double* params[] = {a.pose, b.pose};
+    EXPECT_TRUE(prior.Evaluate(params, r.data(), nullptr));
+    return r;
+  };
+  const Rigid3 longer(T_a_b.rotation(), 1.3 * T_a_b.translation());
+  EXPECT_LT(residual(*free, longer).norm(), 1e-9);
+  EXPECT_GT(residual(*whole, longer).norm(), 10.0);
+  const Vec3 across = T_a_b.translation().cross(Vec3::UnitZ()).normalized() * 0.003;
+  const Rigid3 sideways(T_a_b.rotation(), T_a_b.translation() + across);
+  EXPECT_LT((residual(*free, sideways).head<3>() - across / sigma_p).norm(), 1e-6);
+  EXPECT_LT((residual(*free, sideways) - residual(*whole, sideways)).norm(), 1e-6);
 }
 
 // The relative pose it was made from gives no residual, wherever the pair is in the world; a

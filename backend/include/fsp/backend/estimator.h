@@ -254,6 +254,12 @@ struct PointOptions {
   double global_sigma_m = 0.002;
   double global_sigma_per_m = 0.01;
   double global_sigma_deg = 0.1;
+  // Elsewhere, two consecutive keyframes that both saw live points are tied by the shape of that
+  // relative pose alone: its rotation and the direction of its translation (the same σ across it),
+  // its length free, so that the objects and the IMU keep the scale and one poor object in view
+  // (a track that slides) cannot bend the trajectory against the points (backend/README.md,
+  // "Points"). False: only the stretches without objects are tied.
+  bool global_shape_links = true;
   bool Check(std::string* why) const;
 };
 
@@ -437,6 +443,7 @@ struct EstimatorSummary {
   // rejected when mature.
   int objects_moving = 0;
   int objects_rejected = 0;
+
   int reanchors = 0;
   int objects_reinitialized =
       0;  // window: objects seen again after leaving the window, started afresh

@@ -77,7 +77,9 @@ ceres::CostFunction* MakeImuGapPrior(double dt_s, const ImuGapPriorOptions& opti
 //   r_p = (R_iᵀ (p_j − p_i) − t_ij) / σ_p,   r_θ = 2 vec(q_ijᵀ q_iᵀ q_j) / σ_θ   (q_ij's
 //   conjugate).
 // Blocks: pose_i[7], pose_j[7] (state.h). Automatic derivatives in the ambient parameters.
-// Requires positive sigmas (checked).
-ceres::CostFunction* MakeRelativePosePrior(const Rigid3& T_i_j, double sigma_p, double sigma_rot);
+// Requires positive sigmas (checked). FREE_LENGTH: the position residual's component along t_ij
+// is dropped (its row is 0): only the direction of the translation is held, not its length.
+ceres::CostFunction* MakeRelativePosePrior(const Rigid3& T_i_j, double sigma_p, double sigma_rot,
+                                           bool free_length = false);
 
 }  // namespace fsp::backend
