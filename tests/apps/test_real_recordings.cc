@@ -153,8 +153,11 @@ TEST(RealRecordings, DmvioWalkFirst60sAsFspInfoSeesIt) {
 // so one unit is kReferenceMetres (+-0.05: one pixel of edge placement on a 28 px plate); the
 // accelerometer fitted to the reference's positions (+-0.6 s quadratic fits, its README's method)
 // gives 1.34. Measured: initialised from points with its window starting at 2.35 s (the decision
-// at 4.35 s, once the 2 s window is in), no divergence, 2.2 m extent, Sim3 ATE 2.9 cm (units of
-// the reference), lengths 4 % above the plate's.
+// at 4.35 s, once the 2 s window is in), no divergence, 2.2 m extent, Sim3 ATE 3.2 cm (units of
+// the reference), lengths 3 % above the plate's; the square socket plate mapped 91 x 92 mm. A small
+// box whose track slides on it (3.6-13.6 s) used to bend the global step, which held no points
+// (gyroscope bias 0.002 -> 0.019 rad/s), and the run restarted 3 times (Sim3 28 cm); hence the
+// global step's shape links and the objects' σ from their views (backend/README.md).
 constexpr double kReferenceMetres = 1.39;
 
 TEST(RealRecordings, DmvioWalkFirst60sFromPixels) {
@@ -200,58 +203,25 @@ TEST(RealRecordings, DmvioWalkFirst60sFromPixels) {
   std::printf("[dmvio] lengths %.3f x the metric ones (reference unit = %.2f m)\n", metric_ratio,
               kReferenceMetres);
   EXPECT_NEAR(metric_ratio, 1.0, 0.10);
-}
-
-// The walk with the detector's small-rectangle settings (frontend.rect.rectangle_corner_px 0.5,
-// min_side_px 32: plates and the paper found, off by default). At 3.8 s it starts the recording
-// laptop's screen, carried with the camera: on probation against the points it is dropped at its
-// 4th view (backend/README.md, "Objects on probation"). A small box whose track slides on it (3.6-
-// 13.6 s) used to bend the global step, which held no points (gyroscope bias 0.002 -> 0.019 rad/s),
-// and the run restarted 3 times (Sim3 28 cm); with the global step's shape links and the objects' σ
-// from their views: no restart, Sim3 3.2 cm, the square socket plate (86 mm) mapped 91 x 92 mm.
-TEST(RealRecordings, DmvioWalkWithSmallRectanglesMapsThePlate) {
-  FSP_REQUIRE_DMVIO_WALK(walk);
-  FSP_REQUIRE_TEST_DATA(ref, "dmvio_walk_reference/sfm_metric_first60s.tum");
-  const fs::path dir = test::ScratchDir(), config = dir / "small.yaml";
-  {
-    std::ifstream in(std::string(FSP_SOURCE_DIR) + "/assets/config/dmvio_walk.yaml");
-    std::ofstream out(config);
-    out << in.rdbuf() << "frontend:\n  rect:\n    rectangle_corner_px: 0.5\n    min_side_px: 32\n";
-  }
-  const test::CommandResult r = test::RunFsp("run " + walk + " --config " + config.string() +
-                                             " --until-s 60 --out " + (dir / "run").string());
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  nlohmann::json run, map;
-  std::ifstream(dir / "run" / "run.json") >> run;
-  std::ifstream(dir / "run" / "map.json") >> map;
-  const int moving = run["estimator"]["objects_moving"].get<int>();
-  const int restarts = run["faults"]["resets"].get<int>();
-  // The laptop's screen, at its 4th view (4.2 s).
+  // The recording laptop's screen, carried with the camera, dropped on probation at its 4th view
+  // (4.2 s; backend/README.md, "Objects on probation").
+  EXPECT_GE(e["objects_moving"].get<int>(), 1);
   EXPECT_NE(r.err.find("t=1650458720.96 s: object 1002 dropped: its 4 views"), std::string::npos)
       << r.err;
-  EXPECT_GE(moving, 1);
-  EXPECT_EQ(restarts, 0);
-  const test::CommandResult ev =
-      test::RunFsp("eval --gt " + ref + " --est " + (dir / "run").string() +
-                   " --align sim3 --t-offset 0.045 --out " + (dir / "metrics.json").string());
-  ASSERT_EQ(ev.exit_code, 0) << ev.err;
-  nlohmann::json m;
-  std::ifstream(dir / "metrics.json") >> m;
-  const double ate = m["trajectory"]["ate_rmse_m"].get<double>();
-  // Square plates in the map (sides 6-12 cm, within 15 % of each other): the 86 mm socket plate.
+  // Square plates in the map (sides 6-12 cm, within 15 % of each other): the 86 mm socket plate,
+  // in the estimate's metres.
+  nlohmann::json map;
+  std::ifstream(dir / "run" / "map.json") >> map;
   int plates = 0;
   for (const nlohmann::json& o : map["objects"]) {
     const double w = o["width"].get<double>(), h = o["height"].get<double>();
     if (std::min(w, h) < 0.06 || std::max(w, h) > 0.12 || std::max(w, h) > 1.15 * std::min(w, h))
       continue;
     ++plates;
-    std::printf("[dmvio small] plate %d: %.3f x %.3f m\n", o["id"].get<int>(), w, h);
+    std::printf("[dmvio] plate %d: %.3f x %.3f m\n", o["id"].get<int>(), w, h);
     EXPECT_NEAR(w, 0.086, 0.0086);
     EXPECT_NEAR(h, 0.086, 0.0086);
   }
-  std::printf("[dmvio small] dropped on probation %d, restarts %d, Sim3 ATE %.2f cm\n", moving,
-              restarts, 100.0 * ate);
-  EXPECT_LT(ate, 0.05);
   EXPECT_GE(plates, 1);
 }
 

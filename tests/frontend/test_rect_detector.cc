@@ -214,9 +214,9 @@ TEST(RectDetector, IgnoredInsideCostsNoHypothesesAndKeepsTheOutline) {
 // DM-VIO walk's hand-labelled socket plate 10 at 42.5 s, scaled by 1.2 about its centre (38-40 px;
 // its plain Zhang-He |cos| is 0.33 with the walk's K, 0.46 unscaled, though it is a rectangle
 // within the labels' 2-3 px) drawn into a 1280 x 720 frame. It is found (rectangle_corner_px 0.5)
-// on a level fine enough for it (min_side_px 32, min_level_side_px: 640 x 360); with the plain
-// rectangle test, or with the size limits as fractions of the diagonal alone (59 px at 1280 x 720,
-// the defaults), it is not.
+// on a level fine enough for it (min_side_px 32, min_level_side_px: 640 x 360), the defaults; with
+// the plain rectangle test, or with the size limits as fractions of the diagonal alone (59 px at
+// 1280 x 720), it is not.
 TEST(RectDetector, SmallRectangleSeenHeadOnOnAVideoFrame) {
   const Corners plate = {Vec2(556.8, 547.3), Vec2(593.9, 541.0), Vec2(595.9, 502.0),
                          Vec2(556.8, 507.5)};
@@ -227,9 +227,7 @@ TEST(RectDetector, SmallRectangleSeenHeadOnOnAVideoFrame) {
       if (CornerDistanceBestShift(plate, d.corners_px) < 1.5) return true;
     return false;
   };
-  RectDetectorOptions video;  // the measured values (off by default, see the options)
-  video.rectangle_corner_px = 0.5;
-  video.min_side_px = 32.0;
+  const RectDetectorOptions video;  // rectangle_corner_px 0.5, min_side_px 32
   EXPECT_TRUE(found(video));
   RectDetectorOptions plain = video;
   plain.rectangle_corner_px = 0.0;
@@ -237,7 +235,6 @@ TEST(RectDetector, SmallRectangleSeenHeadOnOnAVideoFrame) {
   RectDetectorOptions fractions = video;
   fractions.min_side_px = 0.0;
   EXPECT_FALSE(found(fractions));
-  EXPECT_FALSE(found(RectDetectorOptions()));
 }
 
 // Two posters side by side with wall between them (the rendered hand-held walk's pair: 0.53 m

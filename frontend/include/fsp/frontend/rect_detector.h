@@ -163,11 +163,8 @@ struct RectDetectorOptions {
   // 1280 x 720 min_side_frac alone asked for 59 px, more than every switch plate and the sheet of
   // paper of the DM-VIO walk's labelled frames (30-68 px). 0: the fractions alone (photographs
   // are detected without a calibration and keep them). 32 is the value measured
-  // (frontend/README.md); off by default for now: with it (and rectangle_corner_px 0.5) `fsp run`
-  // on the DM-VIO walk tracks switch plates into the map, its final solve's corner chi2 per
-  // residual is 332, it diverges at 40.6 s and its Sim3 ATE is 36 cm instead of 2.35 cm (also
-  // when initialised from points): the tracker and the back end are not ready for such objects.
-  double min_side_px = 0.0;
+  // (frontend/README.md, "Small rectangles on video").
+  double min_side_px = 32.0;
   // Smallest / largest image angle between adjacent sides [deg]. Perspective bends 90 deg a lot.
   double min_corner_angle_deg = 25.0;
   // A junction of two segments: their intersection may lie beyond a segment's end (the side's edge
@@ -339,10 +336,8 @@ struct RectDetectorOptions {
   // (a pixel moves its sides' vanishing points a lot): the DM-VIO walk's hand-labelled switch
   // plates (30-45 px, labels good to 2-3 px) have |cos| up to 0.46, the monitors (170-500 px) at
   // most 0.05. 0: the plain test, which rejects small rectangles seen nearly head-on. 0.5 is the
-  // value measured (frontend/README.md); off by default for now: with it `fsp run` on the DM-VIO
-  // walk tracks the paper and the screens it now finds into the map, and its Sim3 ATE went from
-  // 2.35 to 3.17 cm.
-  double rectangle_corner_px = 0.0;
+  // value measured (frontend/README.md, "Small rectangles on video").
+  double rectangle_corner_px = 0.5;
   // Largest metric aspect ratio (long side / short side) accepted.
   double max_aspect = 8.0;
   // Horizontal field of view [deg] assumed for K when no calibration is given (corner order with a
