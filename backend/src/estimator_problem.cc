@@ -362,8 +362,10 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs,
   // Keyframes that saw points alone through a stretch without objects of at least
   // faults.blind_s are tied to their neighbours by the window's relative poses: without the points
   // the global problem has nothing but the IMU there (measured on the room without objects: a false
-  // rectangle at 28 s started global solves that moved 28 s of dead reckoning by 5 m). Shorter
-  // stretches the IMU bridges between objects (backend/README.md, "Points").
+  // rectangle at 28 s started global solves that moved 28 s of dead reckoning by 5 m). Elsewhere
+  // keyframes that saw points are tied by the shape of that relative pose alone, its length free
+  // (global_shape_links: one object and the IMU alone let a sliding track set the gyroscope bias;
+  // backend/README.md, "Points").
   const PointOptions& po = options.points;
   const auto tie = [&](Keyframe* a, Keyframe* b, bool free_length) {
     if ((!is_free(a) && !is_free(b)) || b->gauge) return;

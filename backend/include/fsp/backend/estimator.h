@@ -443,7 +443,6 @@ struct EstimatorSummary {
   // rejected when mature.
   int objects_moving = 0;
   int objects_rejected = 0;
-
   int reanchors = 0;
   int objects_reinitialized =
       0;  // window: objects seen again after leaving the window, started afresh
