@@ -443,7 +443,7 @@ void Estimator::Impl::AddKeyframe(int64_t t_ns, std::vector<ObjectObservation> o
     // (Held still, the zero-velocity prior holds it: no dead reckoning.)
     if (newest->keyframe && UsePoints())
       NoteSight(newest->state.t_ns,
-                !newest->observations.empty() || newest->points_only || newest->still);
+                !newest->observations.empty() || newest->sees_points || newest->still);
     SolveWindow(options.window_max_iterations);
     const auto in_window = [this] {
       return static_cast<int>(keyframes.size() - window_begin) -

@@ -491,7 +491,8 @@ struct Estimator::Impl {
   void RefineYoungObjects(int max_iterations);
   // With points: the objects whose views in the window lie further than
   // PointOptions::object_gate_px from them (on probation, 3 views or more, RMS: erased, their ids
-  // put in `moving`; mature, 5 views or more, median: erased, the map loses it). Warned.
+  // put in `moving`; mature, 5 views or more, median: erased, the map loses it). Warned. The
+  // mature ones kept get their Object::noise_scale from the same views.
   void DropInconsistentObjects();
 
   // --- Marginalisation

@@ -80,7 +80,6 @@ void Estimator::Impl::AddPointViews(Keyframe* kf) {
         auto it = point_tracks.find(p.point_id);
         return it != point_tracks.end() && it->second.live;
       });
-  kf->points_only = kf->observations.empty() && kf->sees_points;
 }
 
 bool Estimator::Impl::TriangulatePoint(PointTrack* t) const {

@@ -390,8 +390,8 @@ std::string Estimator::Impl::SolveAll(Keyframes* kfs, Objects* objs,
     const int64_t to = (*kfs)[end < kfs->size() ? end : end - 1]->state.t_ns;
     if (NsToSeconds(to - from) >= options.faults.blind_s) {
       for (size_t k = std::max<size_t>(i, 1); k < end; ++k)
-        whole[k] = (*kfs)[k]->points_only || (*kfs)[k - 1]->points_only;
-      if (end < kfs->size()) whole[end] = (*kfs)[end - 1]->points_only;
+        whole[k] = (*kfs)[k]->PointsOnly() || (*kfs)[k - 1]->PointsOnly();
+      if (end < kfs->size()) whole[end] = (*kfs)[end - 1]->PointsOnly();
     }
     i = end;
   }

@@ -50,12 +50,11 @@ struct Keyframe {
   std::vector<ObjectObservation> observations;
   // The frame's point features (PointOptions; empty when disabled or none given).
   std::vector<PointObservation> points;
-  // It saw no object, only live points: the global step (which holds no points) ties it to its
-  // neighbours by the window's estimate (backend/README.md, "Points").
-  bool points_only = false;
-  // It saw live points (with or without objects): the global step ties it to the keyframe before
-  // by the shape of their relative pose (PointOptions::global_shape_links).
+  // It saw live points: the global step (which holds no points) ties it to its neighbours by the
+  // window's estimate of their relative pose, whole through a stretch without objects, by its shape
+  // elsewhere (PointOptions::global_shape_links; backend/README.md, "Points").
   bool sees_points = false;
+  bool PointsOnly() const { return observations.empty() && sees_points; }
   // The window's estimate of T_Bprev_B (the previous keyframe's body to this one's), taken when the
   // previous keyframe left the window with points in use.
   std::optional<Rigid3> window_motion;
